@@ -1,0 +1,88 @@
+#include "common/config.hpp"
+
+#include <gtest/gtest.h>
+
+#include <fstream>
+
+#include "common/error.hpp"
+#include "tests/test_support.hpp"
+
+namespace ovo {
+namespace {
+
+TEST(Config, ReadsTypedValuesAndDefaults) {
+  const Config c = Config::fromString("a:\n  b: 2.5\n  n: 3\n  flag: true\n  name: fish\nlist: [1, 2, 3]\n", "t.yaml");
+  EXPECT_DOUBLE_EQ(c.get<double>("a.b", 0.0), 2.5);
+  EXPECT_EQ(c.get<int>("a.n", 0), 3);
+  EXPECT_TRUE(c.get<bool>("a.flag", false));
+  EXPECT_EQ(c.get<std::string>("a.name", ""), "fish");
+  EXPECT_EQ(c.get<std::vector<double>>("list", {}).size(), 3u);
+  EXPECT_EQ(c.get<int>("a.absent", 7), 7);
+  EXPECT_NO_THROW(c.checkAllUsed());
+}
+
+TEST(Config, WrongTypeNamesFileLineAndKey) {
+  const Config c = Config::fromString("a:\n  b: fast\n", "cfg.yaml");
+  try {
+    (void)c.get<double>("a.b", 0.0);
+    FAIL() << "expected an error";
+  } catch (const Error& e) {
+    const std::string msg = e.what();
+    EXPECT_NE(msg.find("cfg.yaml:2"), std::string::npos) << msg;
+    EXPECT_NE(msg.find("a.b"), std::string::npos) << msg;
+    EXPECT_NE(msg.find("expected a number"), std::string::npos) << msg;
+  }
+}
+
+TEST(Config, UnknownKeyIsReportedWithLine) {
+  const Config c = Config::fromString("a:\n  b: 1\n  typo: 2\n", "cfg.yaml");
+  (void)c.get<int>("a.b", 0);
+  try {
+    c.checkAllUsed();
+    FAIL() << "expected an error";
+  } catch (const Error& e) {
+    const std::string msg = e.what();
+    EXPECT_NE(msg.find("a.typo"), std::string::npos) << msg;
+    EXPECT_NE(msg.find("cfg.yaml:3"), std::string::npos) << msg;
+  }
+}
+
+TEST(Config, OverridesWinAndUnknownOverrideIsCaught) {
+  Config c = Config::fromString("a:\n  b: 1\n", "cfg.yaml");
+  c.applyOverride("a.b=4");
+  c.applyOverride("x.y=[1, 2]");
+  EXPECT_EQ(c.get<int>("a.b", 0), 4);
+  EXPECT_THROW(c.checkAllUsed(), Error);  // x.y never read
+  EXPECT_THROW(c.applyOverride("novalue"), Error);
+}
+
+TEST(Config, RangeAndChoiceChecks) {
+  const Config c = Config::fromString("rate: -3\nmode: turbo\n", "cfg.yaml");
+  EXPECT_THROW(c.getInRange("rate", 1.0, 0.0, 100.0), Error);
+  EXPECT_THROW(c.getChoice("mode", "serial", {"serial", "threads"}), Error);
+}
+
+TEST(Config, MissingFileAndBadYamlAreErrors) {
+  EXPECT_THROW(Config::load("/nonexistent/ovo.yaml"), Error);
+  EXPECT_THROW(Config::fromString("a: [1, 2\n", "bad.yaml"), Error);
+  EXPECT_THROW(Config::fromString("- 1\n- 2\n", "list.yaml"), Error);
+}
+
+TEST(Config, Matrix4FromRowsOrFlat) {
+  const Config c = Config::fromString(
+      "T: [[1,0,0,1],[0,1,0,2],[0,0,1,3],[0,0,0,1]]\nF: [1,0,0,0, 0,1,0,0, 0,0,1,0, 0,0,0,1]\nB: [1,2]\n");
+  EXPECT_DOUBLE_EQ(c.get<Eigen::Matrix4d>("T", Eigen::Matrix4d::Zero())(1, 3), 2.0);
+  EXPECT_TRUE(c.get<Eigen::Matrix4d>("F", Eigen::Matrix4d::Zero()).isIdentity());
+  EXPECT_THROW(c.get<Eigen::Matrix4d>("B", Eigen::Matrix4d::Zero()), Error);
+}
+
+TEST(Config, MergeLayersValues) {
+  Config base = Config::fromString("a: 1\nb: 2\n", "base.yaml");
+  base.merge(Config::fromString("b: 5\nc: 6\n", "user.yaml"));
+  EXPECT_EQ(base.get<int>("a", 0), 1);
+  EXPECT_EQ(base.get<int>("b", 0), 5);
+  EXPECT_EQ(base.get<int>("c", 0), 6);
+}
+
+}  // namespace
+}  // namespace ovo

@@ -1,0 +1,49 @@
+// Helpers shared by the test programs: where the real data lives, a skip when it is absent,
+// numeric Jacobians, and running the built `ovo` command.
+#pragma once
+
+#include <gtest/gtest.h>
+
+#include <Eigen/Core>
+#include <filesystem>
+#include <functional>
+#include <string>
+
+namespace ovo::test {
+
+/// ../shared/data/<rel> beside the source tree (or $OVO_SHARED_DATA when set).
+std::filesystem::path sharedData(const std::string& rel = "");
+/// A path inside the source tree, e.g. sourcePath("configs/sim/vineyard_row.yaml").
+std::filesystem::path sourcePath(const std::string& rel);
+/// A fresh empty temporary folder named after the running test.
+std::filesystem::path tempDir();
+
+/// Runs `build/ovo <args>`; returns the exit code; stdout and stderr go to *out / *err when given.
+int runOvo(const std::string& args, std::string* out = nullptr, std::string* err = nullptr);
+
+/// Central-difference Jacobian of f: R^n -> R^m at x.
+Eigen::MatrixXd numericJacobian(const std::function<Eigen::VectorXd(const Eigen::VectorXd&)>& f,
+                                const Eigen::VectorXd& x, double h = 1e-6);
+
+}  // namespace ovo::test
+
+/// Skips the test with a message when ../shared/data/<rel> is absent.
+#define OVO_REQUIRE_DATA(rel)                                                              \
+  do {                                                                                     \
+    if (!std::filesystem::exists(::ovo::test::sharedData(rel)))                            \
+      GTEST_SKIP() << "shared data not found: " << ::ovo::test::sharedData(rel).string()   \
+                   << " (tests on real data need ../shared/data beside the project)";      \
+  } while (0)
+
+/// Compares two Jacobians elementwise with a tolerance relative to the larger magnitude.
+#define OVO_EXPECT_JACOBIAN_NEAR(J_analytic, J_numeric, tol)                                   \
+  do {                                                                                         \
+    const Eigen::MatrixXd _a = (J_analytic);                                                   \
+    const Eigen::MatrixXd _n = (J_numeric);                                                    \
+    ASSERT_EQ(_a.rows(), _n.rows());                                                           \
+    ASSERT_EQ(_a.cols(), _n.cols());                                                           \
+    const double _scale = std::max(1.0, _n.cwiseAbs().maxCoeff());                            \
+    EXPECT_LE((_a - _n).cwiseAbs().maxCoeff(), (tol) * _scale) << "analytic:\n"                \
+                                                               << _a << "\nnumeric:\n"         \
+                                                               << _n;                          \
+  } while (0)
