@@ -1,0 +1,48 @@
+// Bearing factor (DESIGN.md section 6): a landmark anchored in keyframe a (unit bearing b_a in C_a,
+// inverse depth rho) observed from keyframe j with measured unit bearing b_j.
+#pragma once
+
+#include <ceres/sized_cost_function.h>
+
+#include <optional>
+
+#include "common/types.hpp"
+#include "factors/parameterization.hpp"
+
+namespace ovo::factors {
+
+/// Residual = [t1 t2]^T u / sigma_rad, where u is the predicted unit bearing of the landmark in C_j
+/// and (t1, t2) an orthonormal basis of the tangent plane of the measured bearing b_j (computed
+/// once). u is taken from the homogeneous point h = rho p_Cj
+///   h = R_C_B R_W_Bj^T ( R_W_Ba (R_B_C b_a + rho t_B_C) + rho (p_W_Ba - p_W_Bj) ) - rho R_C_B
+///   t_B_C,
+/// which stays finite at rho -> 0 (a point at infinity). The residual is zero for u = -b_j too:
+/// the estimator gates observations with predictedBearing().dot(b_j) > 0.
+/// Blocks: q_W_Ba[4], p_W_Ba[3], q_W_Bj[4], p_W_Bj[3], rho[1]. Robust loss is added by the caller.
+class BearingFactor final : public ceres::SizedCostFunction<2, 4, 3, 4, 3, 1> {
+ public:
+  /// bearing_Ca, bearing_Cj: unit vectors; sigma_rad: angular noise (about pixel sigma / focal px).
+  BearingFactor(const Vec3& bearing_Ca, const Vec3& bearing_Cj, const SE3& T_B_C, double sigma_rad);
+
+  bool Evaluate(double const* const* parameters, double* residuals,
+                double** jacobians) const override;
+
+  /// Predicted unit bearing in C_j, or nullopt when the point projects to the camera centre.
+  std::optional<Vec3> predictedBearing(const double* q_W_Ba, const double* p_W_Ba,
+                                       const double* q_W_Bj, const double* p_W_Bj,
+                                       double rho) const;
+
+  /// Angular sigma from a pixel sigma and the local focal length in pixels (rad).
+  static double sigmaRadFromPixels(double sigma_px, double focal_px) { return sigma_px / focal_px; }
+
+  /// Two unit vectors orthogonal to the unit vector b and to each other (rows of the result).
+  static Eigen::Matrix<double, 2, 3> tangentBasis(const Vec3& b);
+
+ private:
+  Vec3 bearing_Ca_;
+  Eigen::Matrix<double, 2, 3> tangent_;  // rows t1^T, t2^T of b_j's tangent plane, / sigma
+  Mat3 R_B_C_;
+  Vec3 t_B_C_;
+};
+
+}  // namespace ovo::factors

@@ -1,0 +1,48 @@
+// LiDAR range-to-landmark factors (DESIGN.md section 6): a planar LiDAR beam associated with a
+// landmark constrains the landmark's metric distance, which fixes the scale of the window.
+#pragma once
+
+#include <ceres/sized_cost_function.h>
+
+#include "common/types.hpp"
+#include "factors/parameterization.hpp"
+
+namespace ovo::factors {
+
+/// A beam of the scan taken at keyframe k (measured range r in m; its angle phi only serves the
+/// association) and a landmark anchored in keyframe a (unit bearing b_a in C_a, inverse depth rho):
+///   r_res = (||p_L|| - r) / sigma_r,  p_L = T_L_B T_B_W_k T_W_B_a T_B_C (b_a / rho).
+/// Blocks: q_W_Ba[4], p_W_Ba[3], q_W_Bk[4], p_W_Bk[3], rho[1]. The residual is ill-conditioned as
+/// rho -> 0 (the distance goes to infinity and d/d rho ~ 1/rho^2): the estimator creates these only
+/// for landmarks with a sane depth; Evaluate fails (Ceres rejects the step) for rho <= 1e-6.
+/// When a == k use LidarRangeAnchorFactor (Ceres forbids one block twice in a residual).
+class LidarRangeFactor final : public ceres::SizedCostFunction<1, 4, 3, 4, 3, 1> {
+ public:
+  LidarRangeFactor(const Vec3& bearing_Ca, double range_m, const SE3& T_B_C, const SE3& T_B_L,
+                   double sigma_m);
+  bool Evaluate(double const* const* parameters, double* residuals,
+                double** jacobians) const override;
+
+ private:
+  Vec3 bearing_Ca_;
+  double range_m_, inv_sigma_;
+  Mat3 R_B_C_, R_L_B_;
+  Vec3 t_B_C_, t_B_L_;
+};
+
+/// The same beam when the scan keyframe is the landmark's anchor: the residual depends on rho only,
+///   r_res = (||T_L_C (b_a / rho)|| - r) / sigma_r.  Block: rho[1].
+class LidarRangeAnchorFactor final : public ceres::SizedCostFunction<1, 1> {
+ public:
+  LidarRangeAnchorFactor(const Vec3& bearing_Ca, double range_m, const SE3& T_B_C, const SE3& T_B_L,
+                         double sigma_m);
+  bool Evaluate(double const* const* parameters, double* residuals,
+                double** jacobians) const override;
+
+ private:
+  Vec3 bearing_L_;  // R_L_C b_a
+  Vec3 t_L_C_;
+  double range_m_, inv_sigma_;
+};
+
+}  // namespace ovo::factors

@@ -1,0 +1,242 @@
+#include "factors/marginalization.hpp"
+
+#include <Eigen/Eigenvalues>
+#include <algorithm>
+#include <cmath>
+
+#include "common/so3.hpp"
+#include "factors/parameterization.hpp"
+
+namespace ovo::factors {
+
+namespace {
+
+using RowMajorMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+
+// Ceres's tangent of EigenQuaternionManifold between q and q0 (both x, y, z, w): half the rotation
+// vector of q q0^-1, taking the shortest rotation.
+Vec3 quaternionMinus(const double* q, const double* q0) {
+  Quat dq = quatFromBlock(q) * quatFromBlock(q0).conjugate();
+  if (dq.w() < 0.0) dq.coeffs() = -dq.coeffs();
+  const double n = dq.vec().norm();
+  if (n < 1e-15) return dq.vec();
+  return std::atan2(n, dq.w()) / n * dq.vec();
+}
+
+}  // namespace
+
+void MarginalizationInfo::setQuaternionBlock(const double* block) {
+  Block& b = blocks_[block];
+  b.quaternion = true;
+}
+
+bool MarginalizationInfo::isQuaternion(const double* block) const {
+  const auto it = blocks_.find(block);
+  return it != blocks_.end() && it->second.quaternion;
+}
+
+bool MarginalizationInfo::addResidualBlock(const ceres::CostFunction* cost,
+                                           const ceres::LossFunction* loss,
+                                           const std::vector<double*>& blocks,
+                                           const std::vector<int>& drop_indices) {
+  const std::vector<int32_t>& sizes = cost->parameter_block_sizes();
+  if (sizes.size() != blocks.size()) return false;
+  for (int d : drop_indices)
+    if (d < 0 || d >= static_cast<int>(blocks.size())) return false;
+  Linearized lin;
+  lin.blocks = blocks;
+  lin.residual.resize(cost->num_residuals());
+  std::vector<RowMajorMatrix> jac(blocks.size());
+  std::vector<double*> jac_ptrs(blocks.size());
+  for (std::size_t i = 0; i < blocks.size(); ++i) {
+    jac[i].resize(cost->num_residuals(), sizes[i]);
+    jac_ptrs[i] = jac[i].data();
+  }
+  if (!cost->Evaluate(blocks.data(), lin.residual.data(), jac_ptrs.data())) return false;
+  if (!lin.residual.allFinite()) return false;
+
+  // Robust loss: Triggs correction as Ceres applies it (ceres/corrector.cc semantics), so that the
+  // prior sees the same J^T J and J^T r as the solver's last iteration.
+  if (loss) {
+    const double sq_norm = lin.residual.squaredNorm();
+    double rho[3];
+    loss->Evaluate(sq_norm, rho);
+    const double sqrt_rho1 = std::sqrt(std::max(rho[1], 0.0));
+    double residual_scaling = sqrt_rho1, alpha_sq_norm = 0.0;
+    if (sq_norm > 0.0 && rho[2] > 0.0 && rho[1] > 0.0) {
+      const double alpha = 1.0 - std::sqrt(1.0 + 2.0 * sq_norm * rho[2] / rho[1]);
+      residual_scaling = sqrt_rho1 / (1.0 - alpha);
+      alpha_sq_norm = alpha / sq_norm;
+    }
+    for (auto& J : jac) {
+      J = sqrt_rho1 * (J - alpha_sq_norm * lin.residual * (lin.residual.transpose() * J));
+    }
+    lin.residual *= residual_scaling;
+  }
+
+  for (std::size_t i = 0; i < blocks.size(); ++i) {
+    auto [it, inserted] = blocks_.try_emplace(blocks[i]);
+    Block& b = it->second;
+    if (b.x0.empty()) {
+      b.ambient = sizes[i];
+      b.x0.assign(blocks[i], blocks[i] + sizes[i]);
+      order_.push_back(blocks[i]);
+    }
+    lin.jacobians_ambient.emplace_back(jac[i]);
+  }
+  for (int d : drop_indices) blocks_[blocks[d]].dropped = true;
+  residuals_.push_back(std::move(lin));
+  return true;
+}
+
+std::vector<double*> MarginalizationInfo::droppedBlocks() const {
+  std::vector<double*> out;
+  for (double* p : order_)
+    if (blocks_.at(p).dropped) out.push_back(p);
+  return out;
+}
+
+std::vector<int> MarginalizationInfo::keptBlockSizes() const {
+  std::vector<int> out;
+  for (const double* p : kept_) out.push_back(blocks_.at(p).ambient);
+  return out;
+}
+
+const std::vector<double>& MarginalizationInfo::linearizationPoint(const double* block) const {
+  return blocks_.at(block).x0;
+}
+
+bool MarginalizationInfo::marginalize() {
+  // Tangent layout: dropped blocks first (size m), then kept blocks.
+  std::unordered_map<const double*, int> offset;
+  int m = 0, n = 0;
+  kept_.clear();
+  for (double* p : order_) {
+    Block& b = blocks_.at(p);
+    b.tangent = b.quaternion ? kQuatTangent : b.ambient;
+    if (b.dropped) {
+      offset[p] = m;
+      m += b.tangent;
+    }
+  }
+  n = m;
+  for (double* p : order_) {
+    Block& b = blocks_.at(p);
+    if (!b.dropped) {
+      offset[p] = n;
+      n += b.tangent;
+      kept_.push_back(p);
+    }
+  }
+  if (kept_.empty()) return false;
+
+  Eigen::MatrixXd H = Eigen::MatrixXd::Zero(n, n);
+  Eigen::VectorXd g = Eigen::VectorXd::Zero(n);
+  for (const Linearized& lin : residuals_) {
+    std::vector<Eigen::MatrixXd> J_tan(lin.blocks.size());
+    for (std::size_t i = 0; i < lin.blocks.size(); ++i) {
+      const Block& b = blocks_.at(lin.blocks[i]);
+      J_tan[i] =
+          b.quaternion
+              ? Eigen::MatrixXd(lin.jacobians_ambient[i] * quaternionPlusJacobian(b.x0.data()))
+              : lin.jacobians_ambient[i];
+    }
+    for (std::size_t i = 0; i < lin.blocks.size(); ++i) {
+      const int oi = offset.at(lin.blocks[i]);
+      const int ti = static_cast<int>(J_tan[i].cols());
+      g.segment(oi, ti) += J_tan[i].transpose() * lin.residual;
+      for (std::size_t j = 0; j < lin.blocks.size(); ++j) {
+        const int oj = offset.at(lin.blocks[j]);
+        H.block(oi, oj, ti, J_tan[j].cols()) += J_tan[i].transpose() * J_tan[j];
+      }
+    }
+  }
+
+  const auto thresholdOf = [this](const Eigen::VectorXd& lambda) {
+    const double top = lambda.size() ? lambda.maxCoeff() : 0.0;
+    return std::max(options_.eigenvalue_threshold_abs, options_.eigenvalue_threshold_rel * top);
+  };
+
+  // Schur complement: H_p = H_rr - H_rm H_mm^+ H_mr, b_p = b_r - H_rm H_mm^+ b_m.
+  const int r = n - m;
+  if (m > 0) {
+    const Eigen::MatrixXd H_mm = 0.5 * (H.topLeftCorner(m, m) + H.topLeftCorner(m, m).transpose());
+    const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig_mm(H_mm);
+    const double thr = thresholdOf(eig_mm.eigenvalues());
+    const Eigen::VectorXd inv_lambda =
+        (eig_mm.eigenvalues().array() > thr).select(eig_mm.eigenvalues().cwiseInverse(), 0.0);
+    const Eigen::MatrixXd H_mm_inv =
+        eig_mm.eigenvectors() * inv_lambda.asDiagonal() * eig_mm.eigenvectors().transpose();
+    const Eigen::MatrixXd H_rm_Hinv = H.bottomLeftCorner(r, m) * H_mm_inv;
+    H_prior_ = H.bottomRightCorner(r, r) - H_rm_Hinv * H.topRightCorner(m, r);
+    b_prior_ = g.tail(r) - H_rm_Hinv * g.head(m);
+  } else {
+    H_prior_ = H;
+    b_prior_ = g;
+  }
+  H_prior_ = 0.5 * (H_prior_ + H_prior_.transpose()).eval();
+
+  // H_p = V L V^T -> S = L^1/2 V^T, e0 = L^-1/2 V^T b_p over the eigenvalues above the threshold.
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(H_prior_);
+  const double thr = thresholdOf(eig.eigenvalues());
+  std::vector<int> keep;
+  for (int i = 0; i < r; ++i)
+    if (eig.eigenvalues()[i] > thr) keep.push_back(i);
+  if (keep.empty()) return false;
+  S_.resize(static_cast<int>(keep.size()), r);
+  e0_.resize(static_cast<int>(keep.size()));
+  for (std::size_t k = 0; k < keep.size(); ++k) {
+    const double lambda = eig.eigenvalues()[keep[k]];
+    const Eigen::VectorXd v = eig.eigenvectors().col(keep[k]);
+    S_.row(static_cast<int>(k)) = std::sqrt(lambda) * v.transpose();
+    e0_[static_cast<int>(k)] = v.dot(b_prior_) / std::sqrt(lambda);
+  }
+  residuals_.clear();
+  return true;
+}
+
+MarginalizationFactor::MarginalizationFactor(std::shared_ptr<const MarginalizationInfo> info)
+    : info_(std::move(info)) {
+  set_num_residuals(static_cast<int>(info_->S_.rows()));
+  for (int size : info_->keptBlockSizes()) mutable_parameter_block_sizes()->push_back(size);
+}
+
+bool MarginalizationFactor::Evaluate(double const* const* parameters, double* residuals,
+                                     double** jacobians) const {
+  const Eigen::MatrixXd& S = info_->S_;
+  const int rows = static_cast<int>(S.rows());
+  Eigen::VectorXd dx(S.cols());
+  int offset = 0;
+  for (std::size_t i = 0; i < info_->kept_.size(); ++i) {
+    const auto& b = info_->blocks_.at(info_->kept_[i]);
+    if (b.quaternion) {
+      dx.segment<3>(offset) = quaternionMinus(parameters[i], b.x0.data());
+    } else {
+      for (int k = 0; k < b.ambient; ++k) dx[offset + k] = parameters[i][k] - b.x0[k];
+    }
+    offset += b.tangent;
+  }
+  Eigen::Map<Eigen::VectorXd> residual(residuals, rows);
+  residual = S * dx + info_->e0_;
+  if (!jacobians) return true;
+
+  offset = 0;
+  for (std::size_t i = 0; i < info_->kept_.size(); ++i) {
+    const auto& b = info_->blocks_.at(info_->kept_[i]);
+    if (jacobians[i]) {
+      Eigen::Map<RowMajorMatrix> J(jacobians[i], rows, b.ambient);
+      if (b.quaternion) {
+        // Minus(Plus(q, d), q0) = phi/2 + Jl^-1(phi) d with phi = 2 dx; Jl^-1 = Jr^-T.
+        const Vec3 phi = 2.0 * dx.segment<3>(offset);
+        J = S.middleCols<3>(offset) * so3::rightJacobianInverse(phi).transpose() *
+            quaternionPlusJacobian(parameters[i]).transpose();
+      } else {
+        J = S.middleCols(offset, b.ambient);
+      }
+    }
+    offset += b.tangent;
+  }
+  return true;
+}
+
+}  // namespace ovo::factors

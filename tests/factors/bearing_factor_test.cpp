@@ -1,0 +1,106 @@
+#include "factors/bearing_factor.hpp"
+
+#include <gtest/gtest.h>
+
+#include "tests/factors/factor_test_util.hpp"
+
+namespace ovo::factors {
+namespace {
+
+using testing::quatBlock;
+using testing::vecBlock;
+
+struct BearingScene {
+  SE3 T_W_Ba, T_W_Bj, T_B_C;
+  Vec3 p_W;  // landmark
+  Vec3 bearing_Ca, bearing_Cj;
+  double rho;
+  std::vector<std::vector<double>> blocks() const {
+    return {quatBlock(Quat(T_W_Ba.rotation())),
+            vecBlock(T_W_Ba.translation()),
+            quatBlock(Quat(T_W_Bj.rotation())),
+            vecBlock(T_W_Bj.translation()),
+            {rho}};
+  }
+};
+
+BearingScene randomScene(std::mt19937& rng, double depth_m) {
+  BearingScene s;
+  s.T_B_C = testing::randomPose(rng, 1.0, 0.2);
+  s.T_W_Ba = testing::randomPose(rng);
+  s.T_W_Bj = testing::randomPose(rng);
+  // Any direction from the anchor camera, including beyond 90 degrees off the optical axis.
+  const Vec3 dir_Ca = testing::randomVec(rng).normalized();
+  const SE3 T_W_Ca = s.T_W_Ba * s.T_B_C;
+  s.p_W = T_W_Ca * (depth_m * dir_Ca);
+  s.bearing_Ca = dir_Ca;
+  s.rho = 1.0 / depth_m;
+  s.bearing_Cj = ((s.T_W_Bj * s.T_B_C).inverse() * s.p_W).normalized();
+  return s;
+}
+
+const std::vector<bool> kQuatFlags = {true, false, true, false, false};
+
+TEST(BearingFactor, ZeroResidualAtTrueGeometry) {
+  std::mt19937 rng(1);
+  for (int trial = 0; trial < 20; ++trial) {
+    const BearingScene s = randomScene(rng, 0.5 + trial);
+    const BearingFactor f(s.bearing_Ca, s.bearing_Cj, s.T_B_C, 0.002);
+    EXPECT_LT(testing::evaluate(f, s.blocks()).norm(), 1e-8);
+  }
+}
+
+TEST(BearingFactor, ResidualIsAngularOffsetOverSigma) {
+  // Rotating the measured bearing by a small angle alpha about a tangent axis gives a residual of
+  // norm alpha / sigma (to first order).
+  std::mt19937 rng(2);
+  const BearingScene s = randomScene(rng, 4.0);
+  const double alpha = 1e-4, sigma = 1e-3;
+  const Vec3 axis = BearingFactor::tangentBasis(s.bearing_Cj).row(0).transpose();
+  const Vec3 measured = so3::exp(alpha * axis) * s.bearing_Cj;
+  const BearingFactor f(s.bearing_Ca, measured, s.T_B_C, sigma);
+  EXPECT_NEAR(testing::evaluate(f, s.blocks()).norm(), alpha / sigma, 1e-6);
+}
+
+TEST(BearingFactor, TangentBasisIsOrthonormalAndOrthogonalToBearing) {
+  for (const Vec3& b : {Vec3(0, 0, 1), Vec3(0, 0, -1), Vec3(1, 0, 0), Vec3(0.3, -0.8, 0.1)}) {
+    const Vec3 bn = b.normalized();
+    const auto T = BearingFactor::tangentBasis(bn);
+    EXPECT_NEAR((T * T.transpose() - Eigen::Matrix2d::Identity()).norm(), 0.0, 1e-12);
+    EXPECT_NEAR((T * bn).norm(), 0.0, 1e-12);
+  }
+}
+
+TEST(BearingFactor, JacobiansMatchNumericIncludingFarAndWideRays) {
+  std::mt19937 rng(3);
+  for (const double depth : {0.7, 3.0, 50.0, 1e4}) {
+    for (int trial = 0; trial < 5; ++trial) {
+      SCOPED_TRACE("depth " + std::to_string(depth));
+      BearingScene s = randomScene(rng, depth);
+      // Off the solution: perturb the measurement so the residual is not zero.
+      s.bearing_Cj = (s.bearing_Cj + testing::randomVec(rng, 0.05)).normalized();
+      const BearingFactor f(s.bearing_Ca, s.bearing_Cj, s.T_B_C, 0.01);
+      testing::expectJacobiansMatch(f, s.blocks(), kQuatFlags, 1e-5);
+    }
+  }
+}
+
+TEST(BearingFactor, PointAtInfinityIsFiniteAndRotationOnly) {
+  std::mt19937 rng(4);
+  BearingScene s = randomScene(rng, 5.0);
+  s.rho = 0.0;
+  const Mat3 R_Cj_Ca = ((s.T_W_Bj * s.T_B_C).inverse() * (s.T_W_Ba * s.T_B_C)).rotation();
+  const BearingFactor f(s.bearing_Ca, R_Cj_Ca * s.bearing_Ca, s.T_B_C, 0.001);
+  const Eigen::VectorXd r = testing::evaluate(f, s.blocks());
+  ASSERT_EQ(r.size(), 2);
+  EXPECT_LT(r.norm(), 1e-8);
+  testing::expectJacobiansMatch(f, s.blocks(), kQuatFlags, 1e-5);
+  const auto b = s.blocks();
+  const auto predicted =
+      f.predictedBearing(b[0].data(), b[1].data(), b[2].data(), b[3].data(), 0.0);
+  ASSERT_TRUE(predicted.has_value());
+  EXPECT_GT(predicted->dot(R_Cj_Ca * s.bearing_Ca), 1.0 - 1e-12);
+}
+
+}  // namespace
+}  // namespace ovo::factors
