@@ -1,0 +1,127 @@
+// `ovo eval`: compares an estimated trajectory with ground truth and prints the metrics as one
+// JSON object (ATE after Umeyama alignment, optional RPE; evo's semantics, see eval/metrics.hpp).
+#include <cmath>
+#include <iostream>
+#include <nlohmann/json.hpp>
+
+#include "apps/command.hpp"
+#include "common/error.hpp"
+#include "eval/metrics.hpp"
+#include "io/trajectory_io.hpp"
+
+namespace ovo::app {
+namespace {
+
+struct EvalArgs {
+  std::string gt, est;
+  std::string format = "auto";
+  std::string align = "se3";
+  double rpe_delta = 0.0;
+  std::string rpe_unit = "f";
+  double max_diff_s = 0.02;
+  bool rpe_pairs_from_reference = false;
+  bool rpe_asked = false;  // --rpe-delta was given
+};
+
+nlohmann::ordered_json statsJson(const eval::Stats& s, bool full) {
+  nlohmann::ordered_json j = {
+      {"rmse", s.rmse}, {"mean", s.mean}, {"median", s.median}, {"max", s.max}};
+  if (full) {
+    j["std"] = s.std;
+    j["min"] = s.min;
+  }
+  return j;
+}
+
+int runEval(const EvalArgs& args) {
+  const io::TrajectoryFormat format = io::parseTrajectoryFormat(args.format);
+  const auto align = eval::parseAlignMode(args.align);
+  if (!align) fail("--align: expected se3, sim3 or none, got '{}'", args.align);
+  const auto unit = eval::parseDeltaUnit(args.rpe_unit);
+  if (!unit) fail("--rpe-unit: expected m, s or f, got '{}'", args.rpe_unit);
+  if (args.rpe_asked && !(args.rpe_delta > 0.0 && std::isfinite(args.rpe_delta)))
+    fail("--rpe-delta: expected a delta > 0, got {}", args.rpe_delta);
+  if (args.rpe_asked && *unit == eval::DeltaUnit::kFrames &&
+      args.rpe_delta != std::floor(args.rpe_delta))
+    fail("--rpe-delta: a delta in frames must be a whole number, got {}", args.rpe_delta);
+  if (!(args.max_diff_s >= 0.0))
+    fail("--max-diff: expected a time >= 0 s, got {}", args.max_diff_s);
+
+  // euroc: the ground truth is EuRoC csv and the estimate TUM, as evo's `euroc` mode.
+  const io::TrajectoryFormat gt_format =
+      format == io::TrajectoryFormat::kEurocCsv ? io::TrajectoryFormat::kEurocCsv : format;
+  const io::TrajectoryFormat est_format =
+      format == io::TrajectoryFormat::kEurocCsv ? io::TrajectoryFormat::kTum : format;
+  const io::TrajectoryFile gt = io::readTrajectory(args.gt, gt_format);
+  const io::TrajectoryFile est = io::readTrajectory(args.est, est_format);
+
+  // KITTI (evo's `kitti` mode) and files without stamps: pose i with pose i.
+  const bool by_index = format == io::TrajectoryFormat::kKitti || !gt.has_time || !est.has_time;
+  if (by_index && gt.poses.size() != est.poses.size())
+    fail(
+        "{} has {} poses and {} has {}: KITTI files and files without time stamps are matched "
+        "by index and must have the same number of poses",
+        args.gt, gt.poses.size(), args.est, est.poses.size());
+  const eval::Associated pairs =
+      by_index ? eval::associateByIndex(gt.poses, est.poses)
+               : eval::associateByTime(gt.poses, est.poses, fromSeconds(args.max_diff_s));
+  if (pairs.size() == 0)
+    fail("no pose of {} is within {} s of a pose of {}: nothing to compare", args.est,
+         args.max_diff_s, args.gt);
+
+  const auto ate = eval::computeAte(pairs, *align);
+  if (!ate)
+    fail("cannot align {} onto {}: {} matched poses, at least 3 not on one line are needed",
+         args.est, args.gt, pairs.size());
+  nlohmann::ordered_json out;
+  out["pairs"] = pairs.size();
+  out["align"] = eval::alignModeName(*align);
+  out["scale"] = ate->alignment.scale;
+  out["ate"] = statsJson(ate->trans_m, true);
+
+  if (args.rpe_asked) {
+    eval::RpeOptions options;
+    options.delta = args.rpe_delta;
+    options.unit = *unit;
+    options.pairs_from_reference = args.rpe_pairs_from_reference;
+    const auto rpe = eval::computeRpe(pairs, options);
+    if (!rpe)
+      fail("RPE: no pose pair is {} {} apart in {} matched poses: use a smaller --rpe-delta",
+           args.rpe_delta, args.rpe_unit, pairs.size());
+    out["rpe"] = {{"delta", args.rpe_delta},
+                  {"unit", args.rpe_unit},
+                  {"pairs", rpe->id_pairs.size()},
+                  {"trans", statsJson(rpe->trans, false)},
+                  {"rot_deg", statsJson(rpe->rot, false)}};
+  }
+  std::cout << out.dump(2) << std::endl;
+  return 0;
+}
+
+CommandRunner setupEval(CLI::App& sub) {
+  auto args = std::make_shared<EvalArgs>();
+  sub.add_option("--gt", args->gt, "Ground-truth trajectory file")->required();
+  sub.add_option("--est", args->est, "Estimated trajectory file")->required();
+  sub.add_option("--format", args->format,
+                 "tum | kitti | euroc (ground truth EuRoC csv, estimate TUM) | auto")
+      ->capture_default_str();
+  sub.add_option("--align", args->align, "se3 | sim3 | none")->capture_default_str();
+  CLI::Option* rpe_delta =
+      sub.add_option("--rpe-delta", args->rpe_delta, "RPE delta (RPE only when given)");
+  sub.add_option("--rpe-unit", args->rpe_unit, "RPE delta unit: m (path) | s | f (frames)")
+      ->capture_default_str();
+  sub.add_flag("--rpe-pairs-from-reference", args->rpe_pairs_from_reference,
+               "Pick RPE pairs on the reference path (evo's default picks them on the estimate)");
+  sub.add_option("--max-diff", args->max_diff_s, "Max. time difference for association [s]")
+      ->capture_default_str();
+  return [args, rpe_delta] {
+    args->rpe_asked = rpe_delta->count() > 0;
+    return runEval(*args);
+  };
+}
+
+}  // namespace
+}  // namespace ovo::app
+
+OVO_REGISTER_COMMAND(eval, "Compare a trajectory with ground truth (ATE, RPE) as JSON",
+                     ovo::app::setupEval);

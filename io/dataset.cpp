@@ -1,0 +1,356 @@
+#include "io/dataset.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <opencv2/imgcodecs.hpp>
+#include <regex>
+
+#include "camera/calib_io.hpp"
+#include "common/config.hpp"
+#include "common/error.hpp"
+#include "io/text_reader.hpp"
+#include "io/trajectory_io.hpp"
+
+namespace fs = std::filesystem;
+
+namespace ovo::io {
+
+namespace {
+
+// Sensor streams must be strictly ordered in time.
+void checkIncreasing(const TextReader& in, Timestamp previous, Timestamp t_ns, bool first) {
+  if (!first && t_ns <= previous)
+    in.fail("time stamps must increase: {} ns after {} ns", t_ns, previous);
+}
+
+// 1 / median time step, or nullopt with fewer than two stamps.
+template <typename T, typename Stamp>
+std::optional<double> rateHz(const std::vector<T>& items, Stamp stamp) {
+  if (items.size() < 2) return std::nullopt;
+  std::vector<Timestamp> dt;
+  for (std::size_t i = 1; i < items.size(); ++i)
+    dt.push_back(stamp(items[i]) - stamp(items[i - 1]));
+  std::nth_element(dt.begin(), dt.begin() + static_cast<std::ptrdiff_t>(dt.size() / 2), dt.end());
+  const Timestamp median = dt[dt.size() / 2];
+  if (median <= 0) return std::nullopt;
+  return kNsPerSec / static_cast<double>(median);
+}
+
+SE3 rigidFrom(const Eigen::Matrix4d& M, const std::string& where, const std::string& key) {
+  const Mat3 R = M.topLeftCorner<3, 3>();
+  const bool last_row = (M.row(3) - Eigen::RowVector4d(0, 0, 0, 1)).cwiseAbs().maxCoeff() < 1e-9;
+  if (!M.allFinite() || !last_row || (R.transpose() * R - Mat3::Identity()).norm() > 1e-6 ||
+      R.determinant() < 0.0)
+    fail(
+        "{}: key '{}': expected a rigid transform (orthonormal rotation with determinant +1, "
+        "last row 0 0 0 1)",
+        where, key);
+  SE3 T = SE3::Identity();
+  T.matrix() = M;
+  return T;
+}
+
+std::vector<ImageEntry> readImageList(const fs::path& cam_dir) {
+  const fs::path csv = cam_dir / "data.csv";
+  if (!fs::exists(csv))
+    fail("{}: missing (expected the image list: #timestamp [ns],filename)", csv.string());
+  TextReader in(csv, "the image list: #timestamp [ns],filename");
+  std::vector<ImageEntry> images;
+  std::vector<std::string_view> tok;
+  while (in.next(tok)) {
+    if (tok.size() != 2)
+      in.fail("expected 2 columns (timestamp [ns], filename), got {}", tok.size());
+    ImageEntry e;
+    e.t_ns = in.integer(tok[0], "the time stamp [ns]");
+    checkIncreasing(in, images.empty() ? 0 : images.back().t_ns, e.t_ns, images.empty());
+    e.path = cam_dir / "data" / std::string(tok[1]);
+    if (!fs::is_regular_file(e.path)) in.fail("image file {} does not exist", e.path.string());
+    images.push_back(std::move(e));
+  }
+  if (images.empty()) fail("{}: no images listed", csv.string());
+  return images;
+}
+
+std::vector<ImuSample> readImu(const fs::path& csv) {
+  TextReader in(csv, "IMU samples: t[ns], w_x, w_y, w_z [rad/s], a_x, a_y, a_z [m/s^2]");
+  std::vector<ImuSample> imu;
+  std::vector<std::string_view> tok;
+  while (in.next(tok)) {
+    if (tok.size() != 7)
+      in.fail("expected 7 columns (t[ns], w_x, w_y, w_z [rad/s], a_x, a_y, a_z [m/s^2]), got {}",
+              tok.size());
+    ImuSample s;
+    s.t_ns = in.integer(tok[0], "the time stamp [ns]");
+    checkIncreasing(in, imu.empty() ? 0 : imu.back().t_ns, s.t_ns, imu.empty());
+    s.gyro_radps =
+        Vec3(in.number(tok[1], "w_x"), in.number(tok[2], "w_y"), in.number(tok[3], "w_z"));
+    s.accel_mps2 =
+        Vec3(in.number(tok[4], "a_x"), in.number(tok[5], "a_y"), in.number(tok[6], "a_z"));
+    imu.push_back(s);
+  }
+  if (imu.empty()) fail("{}: no IMU samples (remove the file when there is no IMU)", csv.string());
+  return imu;
+}
+
+std::vector<LidarScan> readLidar(const fs::path& csv) {
+  TextReader in(csv,
+                "LiDAR scans: t[ns], angle_min, angle_increment [rad], range_min, range_max, "
+                "ranges [m]...");
+  std::vector<LidarScan> scans;
+  std::vector<std::string_view> tok;
+  std::size_t columns = 0;
+  while (in.next(tok)) {
+    if (tok.size() < 6)
+      in.fail(
+          "expected t[ns], angle_min, angle_increment, range_min, range_max and at least one "
+          "range, got {} columns",
+          tok.size());
+    if (columns == 0) columns = tok.size();
+    if (tok.size() != columns)
+      in.fail("expected {} columns like the first scan, got {}", columns, tok.size());
+    LidarScan s;
+    s.t_ns = in.integer(tok[0], "the time stamp [ns]");
+    checkIncreasing(in, scans.empty() ? 0 : scans.back().t_ns, s.t_ns, scans.empty());
+    s.angle_min_rad = in.number(tok[1], "angle_min [rad]");
+    s.angle_increment_rad = in.number(tok[2], "angle_increment [rad]");
+    s.range_min_m = in.number(tok[3], "range_min [m]");
+    s.range_max_m = in.number(tok[4], "range_max [m]");
+    if (s.angle_increment_rad == 0.0) in.fail("angle_increment must not be 0");
+    if (!(s.range_min_m >= 0.0 && s.range_min_m < s.range_max_m))
+      in.fail("expected 0 <= range_min < range_max, got {} and {}", s.range_min_m, s.range_max_m);
+    s.ranges_m.reserve(tok.size() - 5);
+    for (std::size_t i = 5; i < tok.size(); ++i) {
+      // nan/inf or a value outside [range_min, range_max] is "no return".
+      const double r = in.numberOrNonFinite(tok[i], "a range [m]");
+      s.ranges_m.push_back(std::isnan(r) ? std::numeric_limits<double>::quiet_NaN() : r);
+    }
+    scans.push_back(std::move(s));
+  }
+  if (scans.empty())
+    fail("{}: no LiDAR scans (remove the file when there is no LiDAR)", csv.string());
+  return scans;
+}
+
+std::vector<std::pair<Timestamp, Vec3>> readTruthBias(const fs::path& csv) {
+  TextReader in(csv, "the true gyro bias: t[ns], b_x, b_y, b_z [rad/s]");
+  std::vector<std::pair<Timestamp, Vec3>> bias;
+  std::vector<std::string_view> tok;
+  while (in.next(tok)) {
+    if (tok.size() != 4)
+      in.fail("expected 4 columns (t[ns], b_x, b_y, b_z [rad/s]), got {}", tok.size());
+    const Timestamp t = in.integer(tok[0], "the time stamp [ns]");
+    checkIncreasing(in, bias.empty() ? 0 : bias.back().first, t, bias.empty());
+    bias.emplace_back(
+        t, Vec3(in.number(tok[1], "b_x"), in.number(tok[2], "b_y"), in.number(tok[3], "b_z")));
+  }
+  return bias;
+}
+
+// Ground truth of the EuRoC/ovo layout: root/groundtruth.txt, else mav0/groundtruth.txt, else
+// state_groundtruth_estimate0/data.csv, else the one TUM .txt in that folder.
+std::optional<Trajectory> readOvoGroundtruth(const fs::path& root, const fs::path& base) {
+  for (const fs::path& p : {root / "groundtruth.txt", base / "groundtruth.txt"})
+    if (fs::exists(p)) return readTum(p);
+  const fs::path gt_dir = base / "state_groundtruth_estimate0";
+  if (!fs::is_directory(gt_dir)) return std::nullopt;
+  if (fs::exists(gt_dir / "data.csv")) return readEurocGroundtruthCsv(gt_dir / "data.csv");
+  std::vector<fs::path> txt;
+  for (const auto& e : fs::directory_iterator(gt_dir))
+    if (e.is_regular_file() && e.path().extension() == ".txt") txt.push_back(e.path());
+  std::sort(txt.begin(), txt.end());
+  if (txt.empty()) return std::nullopt;
+  if (txt.size() > 1)
+    fail("{}: {} TUM files and no data.csv: cannot tell which is the ground truth", gt_dir.string(),
+         txt.size());
+  return readTum(txt.front());
+}
+
+Dataset loadOvo(const fs::path& root, const fs::path& base) {
+  Dataset ds;
+  ds.root = root;
+  ds.kind = "ovo";
+  const fs::path cam_dir = base / "cam0";
+  ds.images = readImageList(cam_dir);
+
+  const fs::path ocam = cam_dir / "calib_results.txt";
+  const fs::path sensor = cam_dir / "sensor.yaml";
+  std::optional<SE3> T_B_C_sensor;
+  if (fs::exists(ocam)) {
+    ds.camera = camera::loadCamera(ocam);
+  } else if (fs::exists(sensor)) {
+    ds.camera = camera::loadCamera(sensor);
+    T_B_C_sensor = camera::readSensorYamlExtrinsics(sensor);
+  } else {
+    fail("{}: no camera calibration (expected calib_results.txt or sensor.yaml there)",
+         cam_dir.string());
+  }
+
+  for (const fs::path& p : {root / "rig.yaml", base / "rig.yaml"}) {
+    if (fs::exists(p)) {
+      ds.rig = readRigYaml(p);
+      break;
+    }
+  }
+  if (!ds.rig.has_rig_file && T_B_C_sensor) ds.rig.T_B_C = *T_B_C_sensor;
+
+  if (fs::exists(base / "imu0" / "data.csv")) ds.imu = readImu(base / "imu0" / "data.csv");
+  if (fs::exists(base / "lidar0" / "data.csv")) ds.scans = readLidar(base / "lidar0" / "data.csv");
+  if (auto gt = readOvoGroundtruth(root, base)) ds.groundtruth = std::move(*gt);
+  if (fs::exists(root / "sim" / "truth_bias.csv"))
+    ds.true_gyro_bias = readTruthBias(root / "sim" / "truth_bias.csv");
+
+  if (!ds.rig.has_rig_file) {
+    if (auto r = rateHz(ds.images, [](const ImageEntry& e) { return e.t_ns; }))
+      ds.rig.camera_rate_hz = *r;
+    if (auto r = rateHz(ds.imu, [](const ImuSample& s) { return s.t_ns; }))
+      ds.rig.gyro_rate_hz = *r;
+    if (auto r = rateHz(ds.scans, [](const LidarScan& s) { return s.t_ns; }))
+      ds.rig.lidar_rate_hz = *r;
+  }
+  return ds;
+}
+
+// KITTI calib.txt: the P0 row "P0: 12 numbers" (3x4 projection of the rectified left camera).
+Eigen::Matrix<double, 3, 4> readKittiP0(const fs::path& file) {
+  TextReader in(file, "KITTI calibration: rows 'P0: <12 numbers>'");
+  std::vector<std::string_view> tok;
+  while (in.next(tok)) {
+    if (tok.empty() || tok[0] != "P0:") continue;
+    if (tok.size() != 13) in.fail("expected 'P0:' and 12 numbers, got {} numbers", tok.size() - 1);
+    Eigen::Matrix<double, 3, 4> P;
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < 4; ++c) P(r, c) = in.number(tok[1 + 4 * r + c], "a P0 element");
+    if (!(P(0, 0) > 0.0 && P(1, 1) > 0.0))
+      in.fail("expected positive focal lengths in P0, got fx {} fy {}", P(0, 0), P(1, 1));
+    return P;
+  }
+  fail("{}: no 'P0:' row (expected the left grey camera's 3x4 projection matrix)", file.string());
+}
+
+std::vector<Timestamp> readKittiTimes(const fs::path& file) {
+  TextReader in(file, "KITTI times: one time [s] a line");
+  std::vector<Timestamp> times;
+  std::vector<std::string_view> tok;
+  while (in.next(tok)) {
+    if (tok.size() != 1) in.fail("expected one time [s] a line, got {} values", tok.size());
+    const Timestamp t = in.secondsToNs(tok[0], "the time [s]");
+    checkIncreasing(in, times.empty() ? 0 : times.back(), t, times.empty());
+    times.push_back(t);
+  }
+  if (times.empty()) fail("{}: no time stamps", file.string());
+  return times;
+}
+
+Dataset loadKitti(const fs::path& root) {
+  Dataset ds;
+  ds.root = root;
+  ds.kind = "kitti";
+  const fs::path times_file = root / "times.txt";
+  if (!fs::exists(times_file))
+    fail("{}: missing (expected one time [s] per frame)", times_file.string());
+  const std::vector<Timestamp> times = readKittiTimes(times_file);
+
+  // Frames are image_0/<index>.png; only those present are used, with times.txt's stamps.
+  std::vector<std::pair<std::size_t, fs::path>> frames;
+  for (const auto& e : fs::directory_iterator(root / "image_0")) {
+    if (!e.is_regular_file() || e.path().extension() != ".png") continue;
+    const std::string stem = e.path().stem().string();
+    if (stem.empty() ||
+        !std::all_of(stem.begin(), stem.end(), [](char c) { return c >= '0' && c <= '9'; }))
+      fail("{}: expected a frame number as the file name (e.g. 000042.png)", e.path().string());
+    const std::size_t index = std::stoul(stem);
+    if (index >= times.size())
+      fail("{}: frame {} has no time stamp ({} has {} rows)", e.path().string(), index,
+           times_file.string(), times.size());
+    frames.emplace_back(index, e.path());
+  }
+  if (frames.empty()) fail("{}: no .png images", (root / "image_0").string());
+  std::sort(frames.begin(), frames.end());
+  for (const auto& [index, path] : frames) ds.images.push_back({times[index], path});
+
+  const Eigen::Matrix<double, 3, 4> P0 = readKittiP0(root / "calib.txt");
+  const cv::Mat first = loadImageGrey(ds.images.front());
+  ds.camera =
+      camera::PinholeRadtanCamera(P0(0, 0), P0(1, 1), P0(0, 2), P0(1, 2), first.cols, first.rows);
+  ds.rig.camera_height_m = 1.65;  // KITTI's camera height above the road
+  if (auto r = rateHz(ds.images, [](const ImageEntry& e) { return e.t_ns; }))
+    ds.rig.camera_rate_hz = *r;
+
+  // Ground truth T_W_C (= T_W_B here): poses*.txt or NN.txt beside image_0.
+  std::vector<fs::path> pose_files;
+  const std::regex pose_name(R"((poses.*|[0-9][0-9])\.txt)");
+  for (const auto& e : fs::directory_iterator(root))
+    if (e.is_regular_file() && std::regex_match(e.path().filename().string(), pose_name))
+      pose_files.push_back(e.path());
+  std::sort(pose_files.begin(), pose_files.end());
+  if (pose_files.size() > 1)
+    fail("{}: {} pose files ({}, {}, ...): keep one", root.string(), pose_files.size(),
+         pose_files[0].filename().string(), pose_files[1].filename().string());
+  if (!pose_files.empty()) {
+    bool has_time = false;
+    ds.groundtruth = readKitti(pose_files.front(), &has_time);
+    if (!has_time) {
+      if (ds.groundtruth.size() > times.size())
+        fail("{}: {} poses but {} has only {} time stamps", pose_files.front().string(),
+             ds.groundtruth.size(), times_file.string(), times.size());
+      for (std::size_t i = 0; i < ds.groundtruth.size(); ++i) ds.groundtruth[i].t_ns = times[i];
+    }
+  }
+  return ds;
+}
+
+}  // namespace
+
+RigInfo readRigYaml(const fs::path& file) {
+  const Config cfg = Config::load(file);
+  const std::string where = file.string();
+  constexpr double kMin = 1e-9;  // rates, sigmas and heights must be positive
+  constexpr double kMax = 1e6;
+  RigInfo rig;
+  rig.has_rig_file = true;
+  rig.T_B_C =
+      rigidFrom(cfg.get<Eigen::Matrix4d>("T_B_C", Eigen::Matrix4d::Identity()), where, "T_B_C");
+  rig.T_B_L =
+      rigidFrom(cfg.get<Eigen::Matrix4d>("T_B_L", Eigen::Matrix4d::Identity()), where, "T_B_L");
+  rig.camera_rate_hz = cfg.getInRange("camera.rate_hz", rig.camera_rate_hz, kMin, kMax);
+  rig.pixel_sigma = cfg.getInRange("camera.pixel_sigma", rig.pixel_sigma, kMin, kMax);
+  if (cfg.has("camera.height_m"))
+    rig.camera_height_m = cfg.getInRange("camera.height_m", 0.0, kMin, kMax);
+  rig.gyro_rate_hz = cfg.getInRange("gyro.rate_hz", rig.gyro_rate_hz, kMin, kMax);
+  rig.gyro_noise_density = cfg.getInRange("gyro.noise_density", rig.gyro_noise_density, 0.0, kMax);
+  rig.gyro_bias_random_walk =
+      cfg.getInRange("gyro.bias_random_walk", rig.gyro_bias_random_walk, 0.0, kMax);
+  rig.lidar_rate_hz = cfg.getInRange("lidar.rate_hz", rig.lidar_rate_hz, kMin, kMax);
+  rig.lidar_range_sigma_m =
+      cfg.getInRange("lidar.range_sigma_m", rig.lidar_range_sigma_m, 0.0, kMax);
+  cfg.checkAllUsed();
+  return rig;
+}
+
+Dataset loadDataset(const fs::path& root) {
+  if (!fs::is_directory(root)) fail("{}: dataset folder not found", root.string());
+  if (fs::is_directory(root / "mav0" / "cam0")) return loadOvo(root, root / "mav0");
+  if (fs::is_directory(root / "cam0")) return loadOvo(root, root);
+  if (fs::is_directory(root / "image_0")) {
+    if (!fs::exists(root / "calib.txt"))
+      fail("{}: missing (a KITTI folder needs calib.txt beside image_0/)",
+           (root / "calib.txt").string());
+    return loadKitti(root);
+  }
+  fail(
+      "{}: not a dataset folder: expected cam0/ or mav0/cam0/ (EuRoC/ASL layout) or image_0/ "
+      "with calib.txt and times.txt (KITTI)",
+      root.string());
+}
+
+cv::Mat loadImageGrey(const ImageEntry& entry) {
+  if (!fs::is_regular_file(entry.path)) fail("{}: image file not found", entry.path.string());
+  cv::Mat image = cv::imread(entry.path.string(), cv::IMREAD_GRAYSCALE);
+  if (image.empty())
+    fail("{}: cannot decode the image (expected an 8-bit PNG/JPEG readable by OpenCV)",
+         entry.path.string());
+  return image;
+}
+
+}  // namespace ovo::io

@@ -1,0 +1,70 @@
+// Reading a recorded or simulated sequence from disk: the ovo/EuRoC (ASL) folder layout and
+// KITTI odometry folders (DESIGN.md section 10). Errors name the file, the line and what was
+// expected; nothing is read lazily except the images themselves (loadImageGrey).
+#pragma once
+
+#include <filesystem>
+#include <opencv2/core.hpp>
+#include <optional>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "camera/camera.hpp"
+#include "common/types.hpp"
+
+namespace ovo::io {
+
+/// One camera frame on disk.
+struct ImageEntry {
+  Timestamp t_ns = 0;
+  std::filesystem::path path;
+};
+
+/// Rig extrinsics and sensor noise figures: from rig.yaml when there is one (has_rig_file), else
+/// T_B_C from the camera's sensor.yaml T_BS and rates measured from the time stamps.
+struct RigInfo {
+  SE3 T_B_C = SE3::Identity();  // camera -> body
+  SE3 T_B_L = SE3::Identity();  // LiDAR -> body
+  double camera_rate_hz = 20.0;
+  double pixel_sigma = 0.5;               // image noise [px]
+  std::optional<double> camera_height_m;  // camera height above the ground [m]
+  double gyro_rate_hz = 200.0;
+  double gyro_noise_density = 1.7e-4;     // [rad/s/sqrt(Hz)]
+  double gyro_bias_random_walk = 2.0e-5;  // [rad/s^2/sqrt(Hz)]
+  double lidar_rate_hz = 10.0;
+  double lidar_range_sigma_m = 0.02;
+  bool has_rig_file = false;
+};
+
+/// Everything of a sequence except the pixels. Ground truth is T_W_B (for KITTI, B = camera).
+struct Dataset {
+  std::filesystem::path root;
+  std::string kind;  // "ovo" (EuRoC/ASL layout) or "kitti"
+  std::vector<ImageEntry> images;
+  std::optional<camera::Camera> camera;
+  RigInfo rig;
+  std::vector<ImuSample> imu;
+  std::vector<LidarScan> scans;
+  Trajectory groundtruth;                                  // T_W_B; empty when there is none
+  std::vector<std::pair<Timestamp, Vec3>> true_gyro_bias;  // [rad/s], simulator only
+};
+
+/// Detects the layout of `root` and reads it:
+/// - ovo/EuRoC: root holds cam0/ (or mav0/cam0/): cam0/data.csv + cam0/data/*.png and a
+///   calibration in cam0/ (calib_results.txt or sensor.yaml); optional imu0/data.csv,
+///   lidar0/data.csv, rig.yaml, groundtruth.txt (TUM) or state_groundtruth_estimate0/ (data.csv or
+///   a TUM .txt), sim/truth_bias.csv;
+/// - KITTI odometry: image_0/*.png, calib.txt (P0), times.txt, optional poses file (poses*.txt or
+///   NN.txt, 3x4 rows with or without a leading time); B = C, the camera height is KITTI's 1.65 m.
+/// Throws ovo::Error naming the file and line on anything missing or malformed.
+Dataset loadDataset(const std::filesystem::path& root);
+
+/// The image as 8-bit grey (colour is converted). Throws ovo::Error naming the file when it is
+/// missing or does not decode.
+cv::Mat loadImageGrey(const ImageEntry& entry);
+
+/// Reads rig.yaml (unknown keys, bad values and non-rigid transforms are errors naming the key).
+RigInfo readRigYaml(const std::filesystem::path& file);
+
+}  // namespace ovo::io
