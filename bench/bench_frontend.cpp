@@ -1,0 +1,178 @@
+// Frontend speed (issue 4 target: detection + matching + serial RANSAC <= 10 ms median per 640x480
+// frame on one core). Frame pairs: KITTI 07 frames 0/1 from the shared data, and a 640x480 fisheye
+// pair rendered by the simulator (vineyard_row, RoMoVi OCamCalib camera).
+#include <benchmark/benchmark.h>
+
+#include <filesystem>
+#include <memory>
+#include <opencv2/imgcodecs.hpp>
+#include <optional>
+
+#include "camera/calib_io.hpp"
+#include "common/config.hpp"
+#include "frontend/features.hpp"
+#include "frontend/frontend.hpp"
+#include "frontend/matcher.hpp"
+#include "sim/simulation.hpp"
+
+namespace {
+
+using namespace ovo;
+
+struct FramePair {
+  camera::Camera camera;
+  cv::Mat a, b;
+};
+
+std::optional<FramePair> kittiPair() {
+  const std::filesystem::path dir =
+      std::filesystem::path(OVO_SHARED_DATA_DIR) / "kitti07-first160/image_0";
+  if (!std::filesystem::exists(dir / "000001.png")) return std::nullopt;
+  FramePair p{camera::PinholeRadtanCamera(707.0912, 707.0912, 601.8873, 183.1104, 1226, 370),
+              cv::imread((dir / "000000.png").string(), cv::IMREAD_GRAYSCALE),
+              cv::imread((dir / "000001.png").string(), cv::IMREAD_GRAYSCALE)};
+  if (p.a.empty() || p.b.empty()) return std::nullopt;
+  return p;
+}
+
+std::optional<FramePair> ocamPair() {
+  static std::optional<FramePair> cached;
+  if (cached) return cached;
+  const std::filesystem::path root(OVO_SOURCE_DIR);
+  Config cfg = Config::load(root / "configs/sim/vineyard_row.yaml");
+  cfg.applyOverride("camera.calibration=" + (root / "configs/cameras/romovi_ocam.txt").string());
+  const sim::Simulation simulation(sim::readScenario(cfg));
+  cached = FramePair{simulation.camera(), simulation.renderFrame(40), simulation.renderFrame(41)};
+  return cached;
+}
+
+frontend::FrontendOptions benchOptions(bool half = false) {
+  frontend::FrontendOptions options;
+  options.relative_pose.backend = "serial";
+  options.detector.half_resolution = half;
+  return options;
+}
+
+// One iteration = one frame: the two images alternate, so every frame is matched with the other.
+void runFrontend(benchmark::State& state, const std::optional<FramePair>& pair, bool half = false) {
+  if (!pair) {
+    state.SkipWithError("frame pair not available (../shared/data or sim/)");
+    return;
+  }
+  frontend::Frontend frontend(pair->camera, benchOptions(half));
+  frontend.process(0, pair->a);
+  frontend::FrontendTimings sum;
+  double features = 0, matches = 0, bucketed = 0, inliers = 0;
+  std::int64_t k = 1;
+  for (auto _ : state) {
+    const auto r = frontend.process(k * 50'000'000, (k % 2) ? pair->b : pair->a);
+    ++k;
+    sum.filter_ms += r.timings.filter_ms;
+    sum.nms_ms += r.timings.nms_ms;
+    sum.match_ms += r.timings.match_ms;
+    sum.ransac_ms += r.timings.ransac_ms;
+    sum.track_ms += r.timings.track_ms;
+    features += r.num_features;
+    matches += r.num_matches_before_bucketing;
+    bucketed += static_cast<double>(r.matches.size());
+    inliers += r.relative_pose ? r.relative_pose->num_inliers : 0;
+  }
+  const double n = static_cast<double>(state.iterations());
+  state.counters["filter_ms"] = sum.filter_ms / n;
+  state.counters["nms_ms"] = sum.nms_ms / n;
+  state.counters["match_ms"] = sum.match_ms / n;
+  state.counters["ransac_ms"] = sum.ransac_ms / n;
+  state.counters["track_ms"] = sum.track_ms / n;
+  state.counters["features"] = features / n;
+  state.counters["matches"] = matches / n;
+  state.counters["bucketed"] = bucketed / n;
+  state.counters["inliers"] = inliers / n;
+}
+
+void runFilters(benchmark::State& state, const std::optional<FramePair>& pair) {
+  if (!pair) {
+    state.SkipWithError("frame pair not available");
+    return;
+  }
+  frontend::FilterImages filters;
+  for (auto _ : state) {
+    frontend::computeFilters(pair->a, &filters);
+    benchmark::DoNotOptimize(filters.blob.data());
+  }
+}
+
+void runDetect(benchmark::State& state, const std::optional<FramePair>& pair, bool half) {
+  if (!pair) {
+    state.SkipWithError("frame pair not available");
+    return;
+  }
+  frontend::DetectorOptions options;
+  options.half_resolution = half;
+  frontend::FeatureFrame frame;
+  for (auto _ : state) {
+    frontend::extractFeatures(pair->a, options, cv::Mat(), &frame);
+    benchmark::DoNotOptimize(frame.features.data());
+  }
+  state.counters["features"] = frame.size();
+}
+
+void runMatch(benchmark::State& state, const std::optional<FramePair>& pair, bool half) {
+  if (!pair) {
+    state.SkipWithError("frame pair not available");
+    return;
+  }
+  frontend::DetectorOptions options;
+  options.half_resolution = half;
+  frontend::FeatureFrame a, b;
+  frontend::extractFeatures(pair->a, options, cv::Mat(), &a);
+  frontend::extractFeatures(pair->b, options, cv::Mat(), &b);
+  frontend::Matcher matcher;
+  std::size_t n = 0;
+  double sparse_ms = 0, dense_ms = 0, delaunay_ms = 0, sparse_matches = 0;
+  for (auto _ : state) {
+    frontend::MatchStats stats;
+    const auto matches = matcher.match(a, b, nullptr, &stats);
+    n = matches.size();
+    sparse_ms += stats.sparse_ms;
+    dense_ms += stats.dense_ms;
+    delaunay_ms += stats.delaunay_ms;
+    sparse_matches += stats.sparse_matches;
+    benchmark::DoNotOptimize(matches.data());
+  }
+  const double iters = static_cast<double>(state.iterations());
+  state.counters["matches"] = static_cast<double>(n);
+  state.counters["sparse_matches"] = sparse_matches / iters;
+  state.counters["sparse_ms"] = sparse_ms / iters;
+  state.counters["dense_ms"] = dense_ms / iters;
+  state.counters["delaunay_ms"] = delaunay_ms / iters;
+}
+
+const bool registered = [] {
+  const auto unit = [](benchmark::internal::Benchmark* b) { b->Unit(benchmark::kMillisecond); };
+  unit(benchmark::RegisterBenchmark("BM_Frontend/ocam640x480",
+                                    [](benchmark::State& s) { runFrontend(s, ocamPair()); }));
+  unit(benchmark::RegisterBenchmark("BM_Frontend/kitti1226x370",
+                                    [](benchmark::State& s) { runFrontend(s, kittiPair()); }));
+  unit(benchmark::RegisterBenchmark("BM_Frontend/half/ocam640x480",
+                                    [](benchmark::State& s) { runFrontend(s, ocamPair(), true); }));
+  unit(benchmark::RegisterBenchmark("BM_Frontend/half/kitti1226x370", [](benchmark::State& s) {
+    runFrontend(s, kittiPair(), true);
+  }));
+  unit(benchmark::RegisterBenchmark("BM_Filters/full/ocam640x480",
+                                    [](benchmark::State& s) { runFilters(s, ocamPair()); }));
+  unit(benchmark::RegisterBenchmark("BM_Filters/full/kitti1226x370",
+                                    [](benchmark::State& s) { runFilters(s, kittiPair()); }));
+  unit(benchmark::RegisterBenchmark("BM_Detect/full/ocam640x480",
+                                    [](benchmark::State& s) { runDetect(s, ocamPair(), false); }));
+  unit(benchmark::RegisterBenchmark("BM_Detect/half/ocam640x480",
+                                    [](benchmark::State& s) { runDetect(s, ocamPair(), true); }));
+  unit(benchmark::RegisterBenchmark("BM_Match/full/ocam640x480",
+                                    [](benchmark::State& s) { runMatch(s, ocamPair(), false); }));
+  unit(benchmark::RegisterBenchmark("BM_Match/half/ocam640x480",
+                                    [](benchmark::State& s) { runMatch(s, ocamPair(), true); }));
+  unit(benchmark::RegisterBenchmark("BM_Match/full/kitti1226x370",
+                                    [](benchmark::State& s) { runMatch(s, kittiPair(), false); }));
+  return true;
+}();
+
+}  // namespace

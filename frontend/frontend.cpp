@@ -1,0 +1,208 @@
+#include "frontend/frontend.hpp"
+
+#include <chrono>
+#include <cmath>
+
+#include "common/error.hpp"
+#include "frontend/mask.hpp"
+
+namespace ovo::frontend {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double msSince(Clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+}
+
+}  // namespace
+
+FrontendOptions readFrontendOptions(const Config& cfg) {
+  FrontendOptions o;
+  DetectorOptions& d = o.detector;
+  d.nms_n = cfg.getIntInRange("frontend.nms_n", d.nms_n, 1, 20);
+  d.nms_n_sparse = cfg.getIntInRange("frontend.nms_n_sparse", d.nms_n_sparse, 1, 50);
+  d.nms_tau = cfg.getIntInRange("frontend.nms_tau", d.nms_tau, 0, 10000);
+  d.margin_px = cfg.getIntInRange("frontend.margin_px", d.margin_px, 0, 1000);
+  d.bin_size_px = cfg.getIntInRange("frontend.bin_size_px", d.bin_size_px, 4, 10000);
+  d.half_resolution = cfg.get<bool>("frontend.half_resolution", d.half_resolution);
+  MatcherOptions& m = o.matcher;
+  m.search_radius_px = cfg.getIntInRange("frontend.search_radius_px", m.search_radius_px, 1, 10000);
+  m.search_radius_predicted_px = cfg.getIntInRange("frontend.search_radius_predicted_px",
+                                                   m.search_radius_predicted_px, 1, 10000);
+  m.sparse_pass = cfg.get<bool>("frontend.sparse_pass", m.sparse_pass);
+  m.flow_margin_px = cfg.getIntInRange("frontend.flow_margin_px", m.flow_margin_px, 0, 1000);
+  m.max_cost_ratio = cfg.getInRange("frontend.max_cost_ratio", m.max_cost_ratio, 0.0, 1.0);
+  const std::string subpixel =
+      cfg.getChoice("frontend.subpixel", "cost", {"none", "cost", "response"});
+  m.subpixel = *parseSubpixelMode(subpixel);
+  m.max_refine_steps = cfg.getIntInRange("frontend.max_refine_steps", m.max_refine_steps, 0, 20);
+  m.min_cost_contrast = cfg.getInRange("frontend.min_cost_contrast", m.min_cost_contrast, 0.0, 1.0);
+  m.delaunay_filter = cfg.get<bool>("frontend.delaunay_filter", m.delaunay_filter);
+  m.delaunay_flow_tol_px =
+      cfg.getInRange("frontend.delaunay_flow_tol_px", m.delaunay_flow_tol_px, 0.0, 1000.0);
+  m.delaunay_min_support =
+      cfg.getIntInRange("frontend.delaunay_min_support", m.delaunay_min_support, 0, 100);
+  o.tracker.max_history =
+      cfg.getIntInRange("frontend.max_track_history", o.tracker.max_history, 0, 1000000);
+  o.relative_pose = readRelativePoseOptions(cfg);
+  o.mask_border_px = cfg.getIntInRange("frontend.mask_border_px", o.mask_border_px, 0, 1000);
+  o.bucket_size_px = cfg.getIntInRange("frontend.bucket_size_px", o.bucket_size_px, 1, 10000);
+  o.bucket_max_matches =
+      cfg.getIntInRange("frontend.bucket_max_matches", o.bucket_max_matches, 0, 100000);
+  o.use_rotation_prior = cfg.get<bool>("frontend.use_rotation_prior", o.use_rotation_prior);
+  o.break_tracks_on_outliers =
+      cfg.get<bool>("frontend.break_tracks_on_outliers", o.break_tracks_on_outliers);
+  return o;
+}
+
+Frontend::Frontend(const camera::Camera& camera, const FrontendOptions& options)
+    : camera_(camera),
+      options_(options),
+      mask_(buildValidMask(camera, options.mask_border_px)),
+      bearing_table_(buildBearingTable(camera)),
+      matcher_(options.matcher),
+      tracker_(options.tracker),
+      relative_pose_(options.relative_pose) {}
+
+void Frontend::reset() {
+  has_prev_ = false;
+  tracker_.reset();
+  prev_px_.clear();
+  prev_bearing_.clear();
+}
+
+Vec3 Frontend::bearingOf(const Vec2& px) const {
+  const int u = static_cast<int>(std::lround(px.x())), v = static_cast<int>(std::lround(px.y()));
+  const int w = camera::width(camera_), h = camera::height(camera_);
+  if (u == px.x() && v == px.y() && u >= 0 && v >= 0 && u < w && v < h) {
+    const float* b =
+        bearing_table_.data() + 3 * (static_cast<std::size_t>(v) * w + static_cast<std::size_t>(u));
+    return Vec3(b[0], b[1], b[2]).normalized();
+  }
+  return camera::unproject(camera_, px).value_or(Vec3::Zero());
+}
+
+void Frontend::predict(const Mat3& R_cur_prev, MatchPrediction* prediction) const {
+  const auto predictAll = [&](const FeatureFrame& frame, const Mat3& R, std::vector<Vec2>* px,
+                              std::vector<std::uint8_t>* valid) {
+    px->resize(frame.size());
+    valid->assign(frame.size(), 0);
+    for (int i = 0; i < frame.size(); ++i) {
+      const Vec3 b = bearingOf(frame.pixel(i));
+      if (b.isZero()) continue;
+      const auto p = camera::project(camera_, R * b);
+      if (!p) continue;
+      (*px)[i] = *p;
+      (*valid)[i] = 1;
+    }
+  };
+  predictAll(prev_, R_cur_prev, &prediction->cur_px_of_prev, &prediction->prev_valid);
+  predictAll(cur_, R_cur_prev.transpose(), &prediction->prev_px_of_cur, &prediction->cur_valid);
+}
+
+FrontendResult Frontend::process(Timestamp t_ns, const cv::Mat& grey,
+                                 const std::optional<Mat3>& R_cur_prev_prior) {
+  const int w = camera::width(camera_), h = camera::height(camera_);
+  if (grey.type() != CV_8UC1 || grey.cols != w || grey.rows != h) {
+    fail("frontend: expected a {}x{} 8-bit grey image, got {}x{} of OpenCV type {}", w, h,
+         grey.cols, grey.rows, grey.type());
+  }
+  const auto t_start = Clock::now();
+  FrontendResult result;
+  result.frame_index = ++frame_index_;
+  result.t_ns = t_ns;
+
+  ExtractTimings extract;
+  extractFeatures(grey, options_.detector, mask_, &cur_, &extract);
+  result.timings.filter_ms = extract.filter_ms;
+  result.timings.nms_ms = extract.nms_ms;
+  result.num_features = cur_.size();
+
+  // Match with the previous frame, then bucket (older tracks first).
+  auto t0 = Clock::now();
+  std::vector<Match> matches;
+  std::vector<std::uint8_t> used;
+  if (has_prev_) {
+    MatchPrediction prediction;
+    const bool predicted = R_cur_prev_prior && options_.use_rotation_prior;
+    if (predicted) predict(*R_cur_prev_prior, &prediction);
+    matches = matcher_.match(prev_, cur_, predicted ? &prediction : nullptr, &result.match_stats);
+    std::vector<int> age(matches.size());
+    const auto& prev_ids = tracker_.currentIds();
+    for (std::size_t k = 0; k < matches.size(); ++k) {
+      const Track* track = tracker_.find(prev_ids[matches[k].prev]);
+      age[k] = track ? track->age : 0;
+    }
+    used = bucketMatches(matches, age, options_.bucket_size_px, options_.bucket_max_matches);
+  }
+  result.num_matches_before_bucketing = static_cast<int>(matches.size());
+  result.timings.match_ms = msSince(t0);
+
+  // Observation pixels: a matched feature continues its predecessor's pixel by the measured flow
+  // (so cost-mode refinement stays consistent along a track); others keep their own position.
+  t0 = Clock::now();
+  const bool refined = options_.matcher.subpixel == SubpixelMode::kResponse;
+  std::vector<Vec2> px(cur_.size());
+  std::vector<int> prev_index(cur_.size(), -1), cls(cur_.size());
+  for (int j = 0; j < cur_.size(); ++j) {
+    px[j] = cur_.pixel(j, refined);
+    cls[j] = static_cast<int>(cur_.features[j].cls);
+  }
+  for (const Match& m : matches) {
+    px[m.cur] = prev_px_[m.prev] + (m.px_cur - m.px_prev);
+    prev_index[m.cur] = m.prev;
+  }
+  std::vector<Vec3> bearings(cur_.size());
+  for (int j = 0; j < cur_.size(); ++j) {
+    bearings[j] = bearingOf(px[j]);
+    if (bearings[j].isZero() && prev_index[j] >= 0) {  // flow pushed it off the model's domain
+      px[j] = cur_.pixel(j, refined);
+      bearings[j] = bearingOf(px[j]);
+      prev_index[j] = -1;
+    }
+  }
+  result.timings.track_ms = msSince(t0);
+
+  // Relative pose on the bucketed matches.
+  t0 = Clock::now();
+  std::vector<int> used_matches;
+  for (std::size_t k = 0; k < matches.size(); ++k) {
+    if (used[k] && prev_index[matches[k].cur] >= 0) used_matches.push_back(static_cast<int>(k));
+  }
+  FrameMatches& fm = result.matches;
+  for (const int k : used_matches) {
+    const Match& m = matches[k];
+    fm.bearings_prev.push_back(prev_bearing_[m.prev]);
+    fm.bearings_cur.push_back(bearings[m.cur]);
+    fm.px_prev.push_back(prev_px_[m.prev]);
+    fm.px_cur.push_back(px[m.cur]);
+  }
+  if (has_prev_) {
+    result.relative_pose = relative_pose_.estimate(fm.bearings_prev, fm.bearings_cur);
+    const auto status = result.relative_pose->status;
+    const bool consensus = status == RelativePoseResult::Status::kOk ||
+                           status == RelativePoseResult::Status::kLowParallax;
+    if (options_.break_tracks_on_outliers && consensus &&
+        result.relative_pose->inliers.size() == used_matches.size()) {
+      for (std::size_t i = 0; i < used_matches.size(); ++i) {
+        if (!result.relative_pose->inliers[i]) prev_index[matches[used_matches[i]].cur] = -1;
+      }
+    }
+  }
+  result.timings.ransac_ms = msSince(t0);
+
+  t0 = Clock::now();
+  tracker_.update(result.frame_index, t_ns, px, bearings, cls, prev_index);
+  const auto& ids = tracker_.currentIds();
+  for (const int k : used_matches) fm.track_ids.push_back(ids[matches[k].cur]);
+  result.observations = tracker_.currentObservations();
+  std::swap(prev_, cur_);
+  prev_px_ = std::move(px);
+  prev_bearing_ = std::move(bearings);
+  has_prev_ = true;
+  result.timings.track_ms += msSince(t0);
+  result.timings.total_ms = msSince(t_start);
+  return result;
+}
+
+}  // namespace ovo::frontend

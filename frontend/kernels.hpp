@@ -1,0 +1,66 @@
+// Hot per-pixel and per-descriptor kernels of the libviso2-style frontend (DESIGN section 4), with
+// plain-pointer interfaces so that kernels_simd.cpp can be compiled for the native ISA.
+// Images are row-major with a row stride in elements; outputs have the input's width and height.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+namespace ovo::frontend::kernels {
+
+constexpr int kDescriptorBytes = 32;
+constexpr int kFilterBorder = 2;  // filter outputs within this many pixels of the edge are neutral
+constexpr int kDescriptorRadius = 5;  // largest |offset| of a descriptor sample
+
+/// 5x5 Sobel: du = [1 4 6 4 1]^T (vertical smoothing) x [-1 -2 0 2 1] (horizontal derivative, as
+/// correlation, positive where intensity grows with u); dv likewise transposed. Output is
+/// sat8((sum >> 7) + 128), so a unit-slope ramp gives 129. Border pixels are 128.
+void sobel5x5(const std::uint8_t* img, int width, int height, int stride, std::uint8_t* du,
+              std::uint8_t* dv);
+
+/// 5x5 blob (outer ring -1, inner ring +1, centre +8; sums to zero) and checkerboard
+/// [-1 -1 0 1 1; -1 -1 0 1 1; 0 0 0 0 0; 1 1 0 -1 -1; 1 1 0 -1 -1] responses (correlation).
+/// Border pixels are 0.
+void blobCorner5x5(const std::uint8_t* img, int width, int height, int stride, std::int16_t* blob,
+                   std::int16_t* corner);
+
+/// 2x2 box down-sampling: out(r, c) = round(mean of img(2r..2r+1, 2c..2c+1)); out is
+/// (width / 2) x (height / 2), dense.
+void halfResolution(const std::uint8_t* img, int width, int height, int stride, std::uint8_t* out);
+
+/// A non-maximum-suppression candidate: pixel, response, class (FeatureClass in features.hpp).
+struct RawFeature {
+  std::int16_t u;
+  std::int16_t v;
+  std::int16_t value;
+  std::uint8_t cls;
+};
+
+/// Non-maximum suppression (libviso2 / Neubeck-Van Gool block scheme): in every (n+1)^2 block the
+/// maximum and minimum of the blob and corner responses are candidates; a candidate is kept when
+/// no pixel of its (2n+1)^2 neighbourhood is more extreme (ties go to the earlier pixel in raster
+/// order) and |value| >= tau. Only pixels at least `margin` from the edge are considered.
+/// Classes: 0 blob min, 1 blob max, 2 corner min, 3 corner max. Output in raster order of blocks.
+void nonMaximumSuppression(const std::int16_t* blob, const std::int16_t* corner, int width,
+                           int height, int n, int tau, int margin, std::vector<RawFeature>* out);
+
+/// True when `value` at (u, v) is the extremum (max for is_max, else min) of its
+/// (2 radius + 1)^2 neighbourhood of `response` (same tie rule as above).
+bool isExtremum(const std::int16_t* response, int width, int height, int u, int v, int radius,
+                bool is_max);
+
+/// Sum of absolute differences of two 32-byte descriptors.
+std::uint32_t sad32(const std::uint8_t* a, const std::uint8_t* b);
+
+/// Sum of squared differences of two 32-byte descriptors.
+std::uint32_t ssd32(const std::uint8_t* a, const std::uint8_t* b);
+
+/// Best (lowest SAD, lowest index on ties) candidate i in [begin, end) with
+/// u0 <= us[i] <= u1 and v0 <= vs[i] <= v1; descriptors of candidate i at descs + 32 i.
+/// Updates *best_index / *best_cost only when a candidate beats *best_cost, and *second_cost to
+/// the lowest cost of the other candidates seen.
+void searchBest(const std::uint8_t* query, const std::uint8_t* descs, const std::int16_t* us,
+                const std::int16_t* vs, int begin, int end, int u0, int u1, int v0, int v1,
+                int* best_index, std::uint32_t* best_cost, std::uint32_t* second_cost);
+
+}  // namespace ovo::frontend::kernels

@@ -1,0 +1,371 @@
+#include "frontend/matcher.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <numeric>
+
+#include "frontend/delaunay.hpp"
+
+namespace ovo::frontend {
+namespace {
+
+constexpr std::uint32_t kNoCost = std::numeric_limits<std::uint32_t>::max();
+
+Vec2 toGrid(const FeatureFrame& frame, const Vec2& px_full) {
+  return frame.scale == 1 ? px_full : Vec2((px_full.x() - 0.5) / 2.0, (px_full.y() - 0.5) / 2.0);
+}
+
+// Vertex of the parabola through (-1, l), (0, c), (1, r); nullopt unless c is the minimum of the
+// three (then the vertex lies within +-0.5).
+std::optional<double> parabolaMinimum(double l, double c, double r) {
+  if (c > l || c > r) return std::nullopt;
+  const double denom = l - 2.0 * c + r;
+  if (denom <= 0.0) return 0.0;
+  return (l - r) / (2.0 * denom);
+}
+
+// Where feature `index` of `from` is expected in the other image (detection grid).
+Vec2 predictedCentre(const FeatureFrame& from, int index, const FeatureFrame& to,
+                     const std::vector<Vec2>* predicted, const std::vector<std::uint8_t>* valid,
+                     bool* is_predicted) {
+  const Feature& f = from.features[index];
+  *is_predicted = predicted && (*valid)[index];
+  if (*is_predicted) return toGrid(to, (*predicted)[index]);
+  return Vec2(f.u, f.v);
+}
+
+// The sparse features of `in` as a searchable frame of their own (no filter images); index[k] is
+// the feature of `in` that subset feature k copies.
+void sparseSubset(const FeatureFrame& in, FeatureFrame* out, std::vector<int>* index) {
+  out->scale = in.scale;
+  out->bin_size = in.bin_size;
+  out->bins_u = in.bins_u;
+  out->bins_v = in.bins_v;
+  out->filters.width = in.filters.width;
+  out->filters.height = in.filters.height;
+  out->features.clear();
+  out->us.clear();
+  out->vs.clear();
+  out->descriptors.clear();
+  index->clear();
+  out->bin_begin.assign(in.bin_begin.size(), 0);
+  for (std::size_t b = 0; b + 1 < in.bin_begin.size(); ++b) {
+    out->bin_begin[b] = static_cast<int>(out->features.size());
+    for (int i = in.bin_begin[b]; i < in.bin_begin[b + 1]; ++i) {
+      if (!in.features[i].sparse) continue;
+      out->features.push_back(in.features[i]);
+      out->us.push_back(in.us[i]);
+      out->vs.push_back(in.vs[i]);
+      out->descriptors.insert(out->descriptors.end(), in.descriptor(i),
+                              in.descriptor(i) + kernels::kDescriptorBytes);
+      index->push_back(i);
+    }
+  }
+  out->bin_begin.back() = static_cast<int>(out->features.size());
+}
+
+}  // namespace
+
+std::optional<SubpixelMode> parseSubpixelMode(const std::string& name) {
+  if (name == "none") return SubpixelMode::kNone;
+  if (name == "cost") return SubpixelMode::kCost;
+  if (name == "response") return SubpixelMode::kResponse;
+  return std::nullopt;
+}
+
+Matcher::Window Matcher::window(const FeatureFrame& from, int index, const FeatureFrame& to,
+                                const std::vector<Vec2>* predicted,
+                                const std::vector<std::uint8_t>* valid,
+                                const std::vector<FlowRange>* prior) const {
+  bool is_predicted = false;
+  const Vec2 c = predictedCentre(from, index, to, predicted, valid, &is_predicted);
+  const double radius =
+      (is_predicted ? options_.search_radius_predicted_px : options_.search_radius_px) /
+      static_cast<double>(to.scale);
+  double u_lo = c.x() - radius, u_hi = c.x() + radius;
+  double v_lo = c.y() - radius, v_hi = c.y() + radius;
+  if (prior) {
+    const Feature& f = from.features[index];
+    int row = 0;
+    const int col = from.binOf(f.u, f.v, &row);
+    FlowRange r{std::numeric_limits<float>::max(), std::numeric_limits<float>::lowest(),
+                std::numeric_limits<float>::max(), std::numeric_limits<float>::lowest(), 0};
+    for (int rr = std::max(0, row - 1); rr <= std::min(from.bins_v - 1, row + 1); ++rr) {
+      for (int cc = std::max(0, col - 1); cc <= std::min(from.bins_u - 1, col + 1); ++cc) {
+        const FlowRange& b = (*prior)[rr * from.bins_u + cc];
+        if (b.count == 0) continue;
+        r.u_min = std::min(r.u_min, b.u_min);
+        r.u_max = std::max(r.u_max, b.u_max);
+        r.v_min = std::min(r.v_min, b.v_min);
+        r.v_max = std::max(r.v_max, b.v_max);
+        r.count += b.count;
+      }
+    }
+    if (r.count > 0) {
+      const double m = options_.flow_margin_px / static_cast<double>(to.scale);
+      u_lo = std::max(u_lo, c.x() + r.u_min - m);
+      u_hi = std::min(u_hi, c.x() + r.u_max + m);
+      v_lo = std::max(v_lo, c.y() + r.v_min - m);
+      v_hi = std::min(v_hi, c.y() + r.v_max + m);
+    }
+  }
+  return {static_cast<int>(std::ceil(u_lo)), static_cast<int>(std::floor(u_hi)),
+          static_cast<int>(std::ceil(v_lo)), static_cast<int>(std::floor(v_hi))};
+}
+
+int Matcher::search(const FeatureFrame& from, int index, const FeatureFrame& to, const Window& w,
+                    std::uint32_t* cost) const {
+  const int u0 = std::max(w.u0, 0), u1 = std::min(w.u1, to.filters.width - 1);
+  const int v0 = std::max(w.v0, 0), v1 = std::min(w.v1, to.filters.height - 1);
+  int best = -1;
+  *cost = kNoCost;
+  std::uint32_t second = kNoCost;
+  if (u0 > u1 || v0 > v1) return best;
+  const int cls = static_cast<int>(from.features[index].cls);
+  const int col0 = u0 / to.bin_size, col1 = std::min(u1 / to.bin_size, to.bins_u - 1);
+  const int row0 = v0 / to.bin_size, row1 = std::min(v1 / to.bin_size, to.bins_v - 1);
+  const std::uint8_t* query = from.descriptor(index);
+  for (int row = row0; row <= row1; ++row) {
+    const auto [begin, end] = to.binRange(cls, row, col0, col1);
+    kernels::searchBest(query, to.descriptors.data(), to.us.data(), to.vs.data(), begin, end, u0,
+                        u1, v0, v1, &best, cost, &second);
+  }
+  // Uniqueness: the runner-up must be clearly worse (integer form of best / second < ratio).
+  if (best >= 0 && second != kNoCost &&
+      static_cast<double>(*cost) > options_.max_cost_ratio * static_cast<double>(second)) {
+    return -1;
+  }
+  return best;
+}
+
+std::optional<Vec2> Matcher::refineCost(const FeatureFrame& prev, int p, const FeatureFrame& cur,
+                                        int q) const {
+  const Feature& f = cur.features[q];
+  const std::uint8_t* ref = prev.descriptor(p);
+  std::uint8_t d[kernels::kDescriptorBytes];
+  // Positions whose descriptor lies inside the filtered area.
+  const int lo = kernels::kDescriptorRadius + kernels::kFilterBorder;
+  const int u_hi = cur.filters.width - 1 - lo, v_hi = cur.filters.height - 1 - lo;
+  const auto ssdAt = [&](int u, int v) {
+    if (u < lo || v < lo || u > u_hi || v > v_hi) return std::numeric_limits<double>::max();
+    computeDescriptor(cur.filters, u, v, d);
+    return static_cast<double>(kernels::ssd32(ref, d));
+  };
+  // Descend on the SSD over the 8-neighbourhood from the matched feature: a feature detected a
+  // little off the true position (typical along edges) moves to the cost minimum.
+  int u = f.u, v = f.v;
+  double c = ssdAt(u, v);
+  double rise_min = 0.0, rise_max = 0.0;  // SSD increase to the cheapest / dearest neighbour
+  double around[3][3];                    // SSD of the 3x3 neighbourhood, [dv + 1][du + 1]
+  for (int step = 0;; ++step) {
+    int best_du = 0, best_dv = 0;
+    double best = c, worst = c, second = std::numeric_limits<double>::max();
+    for (int dv = -1; dv <= 1; ++dv) {
+      for (int du = -1; du <= 1; ++du) {
+        if (du == 0 && dv == 0) continue;
+        const double x = ssdAt(u + du, v + dv);
+        around[dv + 1][du + 1] = x;
+        second = std::min(second, x);
+        worst = std::max(worst, x);
+        if (x < best) best = x, best_du = du, best_dv = dv;
+      }
+    }
+    rise_min = second - c;
+    rise_max = worst - c;
+    if (best_du == 0 && best_dv == 0) break;
+    if (step == options_.max_refine_steps) return std::nullopt;
+    u += best_du;
+    v += best_dv;
+    c = best;
+  }
+  // Response mode reports the feature's own position: it must be the cost minimum.
+  if (options_.subpixel == SubpixelMode::kResponse && (u != f.u || v != f.v)) return std::nullopt;
+  // Aperture check: along a straight edge the SSD barely rises in one direction.
+  if (rise_min < options_.min_cost_contrast * rise_max) return std::nullopt;
+  const auto ou = parabolaMinimum(around[1][0], c, around[1][2]);
+  const auto ov = parabolaMinimum(around[0][1], c, around[2][1]);
+  if (!ou || !ov) return std::nullopt;
+  return cur.toFull(u + *ou, v + *ov);
+}
+
+std::vector<Match> Matcher::match(const FeatureFrame& prev, const FeatureFrame& cur,
+                                  const MatchPrediction* prediction, MatchStats* stats) {
+  MatchStats local_stats;
+  const std::vector<Vec2>* pred_cur_of_prev = prediction ? &prediction->cur_px_of_prev : nullptr;
+  const std::vector<std::uint8_t>* prev_valid = prediction ? &prediction->prev_valid : nullptr;
+  const std::vector<Vec2>* pred_prev_of_cur = prediction ? &prediction->prev_px_of_cur : nullptr;
+  const std::vector<std::uint8_t>* cur_valid = prediction ? &prediction->cur_valid : nullptr;
+
+  using Clock = std::chrono::steady_clock;
+  const auto ms = [](Clock::time_point a, Clock::time_point b) {
+    return std::chrono::duration<double, std::milli>(b - a).count();
+  };
+  const auto t0 = Clock::now();
+  // Sparse pass: circle-checked matches among the sparse features over the full window.
+  const bool use_prior = options_.sparse_pass;
+  if (use_prior) {
+    sparseSubset(prev, &prev_sparse_, &prev_sparse_index_);
+    sparseSubset(cur, &cur_sparse_, &cur_sparse_index_);
+    std::vector<std::pair<int, int>> sparse;
+    for (const int q : cur_sparse_index_) {
+      std::uint32_t cost = 0;
+      const int p_sub = search(cur, q, prev_sparse_,
+                               window(cur, q, prev, pred_prev_of_cur, cur_valid, nullptr), &cost);
+      if (p_sub < 0) continue;
+      const int p = prev_sparse_index_[p_sub];
+      const int q2_sub = search(prev, p, cur_sparse_,
+                                window(prev, p, cur, pred_cur_of_prev, prev_valid, nullptr), &cost);
+      if (q2_sub >= 0 && cur_sparse_index_[q2_sub] == q) sparse.emplace_back(p, q);
+    }
+    std::vector<Vec2> px(sparse.size()), flow(sparse.size());
+    for (std::size_t k = 0; k < sparse.size(); ++k) {
+      px[k] = cur.pixel(sparse[k].second);
+      flow[k] = px[k] - prev.pixel(sparse[k].first);
+    }
+    std::vector<std::uint8_t> keep(sparse.size(), 1);
+    if (options_.delaunay_filter) {
+      keep = delaunaySupportFilter(px, flow, options_.delaunay_flow_tol_px,
+                                   options_.delaunay_min_support);
+    }
+    const FlowRange empty{0.f, 0.f, 0.f, 0.f, 0};
+    prior_from_cur_.assign(static_cast<std::size_t>(cur.bins_u) * cur.bins_v, empty);
+    prior_from_prev_.assign(static_cast<std::size_t>(prev.bins_u) * prev.bins_v, empty);
+    const auto add = [](FlowRange& r, const Vec2& flow_grid) {
+      const float u = static_cast<float>(flow_grid.x()), v = static_cast<float>(flow_grid.y());
+      if (r.count == 0) {
+        r = {u, u, v, v, 1};
+        return;
+      }
+      r.u_min = std::min(r.u_min, u);
+      r.u_max = std::max(r.u_max, u);
+      r.v_min = std::min(r.v_min, v);
+      r.v_max = std::max(r.v_max, v);
+      ++r.count;
+    };
+    for (std::size_t k = 0; k < sparse.size(); ++k) {
+      if (!keep[k]) continue;
+      ++local_stats.sparse_matches;
+      const auto [p, q] = sparse[k];
+      const Feature& fp = prev.features[p];
+      const Feature& fq = cur.features[q];
+      bool predicted = false;
+      int row = 0;
+      int col = cur.binOf(fq.u, fq.v, &row);
+      add(prior_from_cur_[row * cur.bins_u + col],
+          Vec2(fp.u, fp.v) -
+              predictedCentre(cur, q, prev, pred_prev_of_cur, cur_valid, &predicted));
+      col = prev.binOf(fp.u, fp.v, &row);
+      add(prior_from_prev_[row * prev.bins_u + col],
+          Vec2(fq.u, fq.v) -
+              predictedCentre(prev, p, cur, pred_cur_of_prev, prev_valid, &predicted));
+    }
+  }
+
+  const auto t1 = Clock::now();
+  // Dense pass with circle check current -> previous -> current.
+  std::vector<Match> matches;
+  reverse_.assign(prev.size(), -2);
+  for (int q = 0; q < cur.size(); ++q) {
+    std::uint32_t cost = 0;
+    const int p = search(
+        cur, q, prev,
+        window(cur, q, prev, pred_prev_of_cur, cur_valid, use_prior ? &prior_from_cur_ : nullptr),
+        &cost);
+    if (p < 0) continue;
+    if (reverse_[p] == -2) {
+      std::uint32_t back_cost = 0;
+      reverse_[p] = search(prev, p, cur,
+                           window(prev, p, cur, pred_cur_of_prev, prev_valid,
+                                  use_prior ? &prior_from_prev_ : nullptr),
+                           &back_cost);
+    }
+    if (reverse_[p] != q) continue;
+    Match m;
+    m.prev = p;
+    m.cur = q;
+    m.cost = cost;
+    const auto refined = refineCost(prev, p, cur, q);
+    if (!refined) {
+      ++local_stats.not_minimum;
+      continue;
+    }
+    switch (options_.subpixel) {
+      case SubpixelMode::kNone:
+        m.px_prev = prev.pixel(p);
+        m.px_cur = cur.pixel(q);
+        break;
+      case SubpixelMode::kCost:
+        m.px_prev = prev.pixel(p);
+        m.px_cur = *refined;
+        break;
+      case SubpixelMode::kResponse:
+        m.px_prev = prev.pixel(p, true);
+        m.px_cur = cur.pixel(q, true);
+        break;
+    }
+    matches.push_back(m);
+  }
+  local_stats.circle_matches = static_cast<int>(matches.size());
+  const auto t2 = Clock::now();
+
+  if (options_.delaunay_filter && !matches.empty()) {
+    std::vector<Vec2> px(matches.size()), flow(matches.size());
+    for (std::size_t k = 0; k < matches.size(); ++k) {
+      px[k] = matches[k].px_cur;
+      flow[k] = matches[k].px_cur - matches[k].px_prev;
+    }
+    const auto keep = delaunaySupportFilter(px, flow, options_.delaunay_flow_tol_px,
+                                            options_.delaunay_min_support);
+    std::size_t kept = 0;
+    for (std::size_t k = 0; k < matches.size(); ++k) {
+      if (keep[k]) matches[kept++] = matches[k];
+    }
+    local_stats.delaunay_removed = static_cast<int>(matches.size() - kept);
+    matches.resize(kept);
+  }
+  const auto t3 = Clock::now();
+  local_stats.sparse_ms = ms(t0, t1);
+  local_stats.dense_ms = ms(t1, t2);
+  local_stats.delaunay_ms = ms(t2, t3);
+  if (stats) *stats = local_stats;
+  return matches;
+}
+
+std::vector<std::uint8_t> bucketMatches(const std::vector<Match>& matches,
+                                        const std::vector<int>& priority, int bucket_px,
+                                        int max_per_bucket) {
+  const int n = static_cast<int>(matches.size());
+  std::vector<std::uint8_t> keep(n, 0);
+  if (max_per_bucket <= 0 || bucket_px <= 0) {
+    std::fill(keep.begin(), keep.end(), 1);
+    return keep;
+  }
+  std::vector<std::int64_t> bucket(n);
+  for (int i = 0; i < n; ++i) {
+    const auto bu = static_cast<std::int64_t>(std::floor(matches[i].px_cur.x() / bucket_px));
+    const auto bv = static_cast<std::int64_t>(std::floor(matches[i].px_cur.y() / bucket_px));
+    bucket[i] = (bv << 32) + bu;
+  }
+  std::vector<int> order(n);
+  std::iota(order.begin(), order.end(), 0);
+  const auto prio = [&](int i) { return priority.empty() ? 0 : priority[i]; };
+  std::sort(order.begin(), order.end(), [&](int a, int b) {
+    if (bucket[a] != bucket[b]) return bucket[a] < bucket[b];
+    if (prio(a) != prio(b)) return prio(a) > prio(b);
+    if (matches[a].cost != matches[b].cost) return matches[a].cost < matches[b].cost;
+    return a < b;
+  });
+  int taken = 0;
+  for (int k = 0; k < n; ++k) {
+    if (k > 0 && bucket[order[k]] != bucket[order[k - 1]]) taken = 0;
+    if (taken < max_per_bucket) {
+      keep[order[k]] = 1;
+      ++taken;
+    }
+  }
+  return keep;
+}
+
+}  // namespace ovo::frontend

@@ -1,0 +1,77 @@
+// Feature tracks with stable ids across frames (the sliding window needs multi-frame tracks;
+// libviso2 has only frame pairs): a feature matched previous -> current keeps its track id, every
+// unmatched feature of the current frame starts a new track.
+#pragma once
+
+#include <cstdint>
+#include <unordered_map>
+#include <vector>
+
+#include "common/types.hpp"
+
+namespace ovo::frontend {
+
+/// One sighting of a track.
+struct TrackObservation {
+  std::int64_t frame_index = 0;
+  Timestamp t_ns = 0;
+  Vec2 px = Vec2::Zero();         // full-resolution pixel
+  Vec3 bearing_C = Vec3::Zero();  // unit bearing in the camera frame
+};
+
+/// A track and its history, oldest first (capped at TrackerOptions::max_history; age is not).
+struct Track {
+  std::uint64_t id = 0;
+  int feature_class = 0;
+  int age = 0;  // frames the track has lived, including the current one
+  std::vector<TrackObservation> history;
+  const TrackObservation& last() const { return history.back(); }
+};
+
+/// The current frame's view of one track.
+struct FeatureObservation {
+  std::uint64_t track_id = 0;
+  Vec2 px = Vec2::Zero();
+  Vec3 bearing_C = Vec3::Zero();
+  int age = 1;
+  int feature_class = 0;
+};
+
+struct TrackerOptions {
+  int max_history = 0;  // observations kept per track (0 = all)
+};
+
+/// Owns the tracks. Call update() once per frame with the current features and, for each, the
+/// index of the previous frame's feature it was matched to (or -1).
+class TrackManager {
+ public:
+  explicit TrackManager(const TrackerOptions& options = {}) : options_(options) {}
+
+  /// Advances to frame `frame_index`. prev_index[j] indexes the features of the previous update()
+  /// (each previous feature continued at most once; later duplicates start new tracks). Tracks not
+  /// continued end; those that lived at least two frames are kept in finishedTracks() until the
+  /// next update().
+  void update(std::int64_t frame_index, Timestamp t_ns, const std::vector<Vec2>& px,
+              const std::vector<Vec3>& bearings_C, const std::vector<int>& feature_class,
+              const std::vector<int>& prev_index);
+
+  /// Track ids of the current features, in update() order.
+  const std::vector<std::uint64_t>& currentIds() const { return current_ids_; }
+  std::vector<FeatureObservation> currentObservations() const;
+  /// The live track with this id, or nullptr.
+  const Track* find(std::uint64_t id) const;
+  const std::unordered_map<std::uint64_t, Track>& activeTracks() const { return active_; }
+  /// Tracks (age >= 2) that ended at the latest update().
+  const std::vector<Track>& finishedTracks() const { return finished_; }
+  std::uint64_t nextId() const { return next_id_; }
+  void reset();
+
+ private:
+  TrackerOptions options_;
+  std::unordered_map<std::uint64_t, Track> active_;
+  std::vector<std::uint64_t> current_ids_;
+  std::vector<Track> finished_;
+  std::uint64_t next_id_ = 0;
+};
+
+}  // namespace ovo::frontend
