@@ -1,0 +1,90 @@
+// The interface every estimator (vo, kf, window) implements. Measurements come in by calls in
+// time order; poses come back by return value. No threads, files or command line here: the
+// offline runner calls it in sequence, the online runner from its threads (DESIGN section 1).
+#pragma once
+
+#include <opencv2/core.hpp>
+
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "camera/camera.hpp"
+#include "common/config.hpp"
+#include "common/types.hpp"
+
+namespace ovo::estimator {
+
+/// What the estimator knows about the sensors: camera model, extrinsics and noise figures.
+struct SensorSetup {
+  camera::Camera camera;
+  SE3 T_B_C = SE3::Identity();        // camera -> body
+  SE3 T_B_L = SE3::Identity();        // LiDAR -> body
+  double camera_rate_hz = 20.0;
+  double pixel_sigma = 0.5;           // px, image measurement noise
+  std::optional<double> camera_height_m = std::nullopt;  // above the ground, for ground-plane scale
+  double gyro_noise_density = 1.7e-4;     // rad/s/sqrt(Hz)
+  double gyro_bias_random_walk = 2.0e-5;  // rad/s^2/sqrt(Hz)
+  double lidar_range_sigma_m = 0.02;
+  bool has_gyro = false;
+  bool has_lidar = false;
+};
+
+/// A feature tracked into the current image, for viewers: its track id, pixel and age in frames.
+struct TrackPx {
+  std::uint64_t id = 0;
+  Vec2 px = Vec2::Zero();
+  int age = 1;  // frames the track has lived, including this one
+};
+
+/// The result for one camera frame.
+struct FrameEstimate {
+  Timestamp t_ns = 0;
+  SE3 T_W_B = SE3::Identity();
+  bool tracked = false;          // false: pose held or propagated (lost, standstill without vision)
+  bool is_keyframe = false;
+  Vec3 gyro_bias = Vec3::Zero(); // current estimate, rad/s
+  double scale_source_lidar = 0.0;  // 1 when this frame's scale came from the LiDAR, 0 otherwise
+  std::string status;            // short reason when not tracked ("low_parallax", "too_few_matches", ...)
+  double frontend_ms = 0.0;
+  double estimator_ms = 0.0;
+  std::vector<TrackPx> tracks;   // optional (viewer): features of this image on tracks of age >= 2
+};
+
+/// Counters an estimator reports at the end of a run (merged into metrics.json).
+struct EstimatorStats {
+  int frames = 0;
+  int frames_tracked = 0;
+  int keyframes = 0;
+  int lidar_scale_frames = 0;      // frames whose scale came from the LiDAR
+  int ground_scale_frames = 0;     // frames that fell back to the ground-plane scale
+  int gyro_gaps = 0;
+  int tracking_losses = 0;
+  std::vector<std::string> notes;  // fallbacks said once ("no gyro: vision-only rotation", ...)
+};
+
+class Estimator {
+ public:
+  virtual ~Estimator() = default;
+  virtual std::string name() const = 0;
+  virtual void addGyro(const ImuSample& sample) = 0;
+  virtual void addScan(const LidarScan& scan) = 0;
+  /// Processes one grey image (CV_8UC1) and returns the pose of the body at its time.
+  virtual FrameEstimate addImage(Timestamp t_ns, const cv::Mat& grey) = 0;
+  /// Called once after the last measurement (offline refinement may change earlier poses).
+  virtual void finish() {}
+  /// Final poses of all frames (after finish(); may differ from what addImage returned).
+  virtual Trajectory trajectory() const = 0;
+  /// Keyframe poses (empty for estimators without keyframes).
+  virtual Trajectory keyframes() const { return {}; }
+  virtual EstimatorStats stats() const = 0;
+  /// Gyro bias estimate over time (for reports), empty when not estimated.
+  virtual std::vector<std::pair<Timestamp, Vec3>> biasHistory() const { return {}; }
+};
+
+/// Creates "vo", "kf" or "window" from the configuration (throws ovo::Error for unknown names).
+std::unique_ptr<Estimator> makeEstimator(const std::string& name, const SensorSetup& setup, const Config& config);
+
+}  // namespace ovo::estimator

@@ -1,0 +1,50 @@
+// Time-ordered store of gyro samples shared by the estimators: hands out the samples around an
+// interval (for preintegration) and drops what no estimator state needs any more.
+#pragma once
+
+#include <algorithm>
+#include <span>
+#include <vector>
+
+#include "common/types.hpp"
+
+namespace ovo::estimator {
+
+class GyroBuffer {
+ public:
+  /// Appends a sample; samples out of time order or with non-finite values are rejected (false).
+  bool add(const ImuSample& s) {
+    if (!s.gyro_radps.allFinite()) return false;
+    if (!samples_.empty() && s.t_ns <= samples_.back().t_ns) return false;
+    samples_.push_back(s);
+    return true;
+  }
+  /// Samples from the last one at or before t0 to the first one at or after t1 (what
+  /// factors::GyroPreintegration needs to interpolate at both ends).
+  std::span<const ImuSample> around(Timestamp t0_ns, Timestamp t1_ns) const {
+    auto lo = std::upper_bound(samples_.begin(), samples_.end(), t0_ns,
+                               [](Timestamp t, const ImuSample& s) { return t < s.t_ns; });
+    if (lo != samples_.begin()) --lo;
+    auto hi = std::lower_bound(samples_.begin(), samples_.end(), t1_ns,
+                               [](const ImuSample& s, Timestamp t) { return s.t_ns < t; });
+    if (hi != samples_.end()) ++hi;
+    if (hi < lo) hi = lo;
+    return {samples_.data() + (lo - samples_.begin()), static_cast<std::size_t>(hi - lo)};
+  }
+  /// True when some sample is at or after t (the interval up to t can be integrated fully).
+  bool covers(Timestamp t_ns) const { return !samples_.empty() && samples_.back().t_ns >= t_ns; }
+  bool empty() const { return samples_.empty(); }
+  const std::vector<ImuSample>& samples() const { return samples_; }
+  /// Forgets samples older than t (keeping one before it for interpolation).
+  void dropBefore(Timestamp t_ns) {
+    auto it = std::lower_bound(samples_.begin(), samples_.end(), t_ns,
+                               [](const ImuSample& s, Timestamp t) { return s.t_ns < t; });
+    if (it != samples_.begin()) --it;
+    samples_.erase(samples_.begin(), it);
+  }
+
+ private:
+  std::vector<ImuSample> samples_;
+};
+
+}  // namespace ovo::estimator
