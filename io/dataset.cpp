@@ -242,6 +242,14 @@ std::vector<Timestamp> readKittiTimes(const fs::path& file) {
   return times;
 }
 
+SE3 kittiBodyFromCamera() {
+  SE3 T_B_C = SE3::Identity();
+  T_B_C.linear() << 0, 0, 1,  //
+      -1, 0, 0,                //
+      0, -1, 0;
+  return T_B_C;
+}
+
 Dataset loadKitti(const fs::path& root) {
   Dataset ds;
   ds.root = root;
@@ -273,11 +281,15 @@ Dataset loadKitti(const fs::path& root) {
   const cv::Mat first = loadImageGrey(ds.images.front());
   ds.camera =
       camera::PinholeRadtanCamera(P0(0, 0), P0(1, 1), P0(0, 2), P0(1, 2), first.cols, first.rows);
-  ds.rig.camera_height_m = 1.65;  // KITTI's camera height above the road
+  // The KITTI rig: body B x forward, y left, z up at the camera centre, camera pitch 0 (x_C = -y_B,
+  // y_C = -z_B, z_C = x_B), 1.65 m above the road. Estimators take "up" from T_B_C.
+  ds.rig.T_B_C = kittiBodyFromCamera();
+  ds.rig.camera_height_m = 1.65;
   if (auto r = rateHz(ds.images, [](const ImageEntry& e) { return e.t_ns; }))
     ds.rig.camera_rate_hz = *r;
 
-  // Ground truth T_W_C (= T_W_B here): poses*.txt or NN.txt beside image_0.
+  // Ground truth: poses*.txt or NN.txt beside image_0, T_Wc_C in KITTI's camera-style world
+  // (the first camera frame); turned into T_W_B with W z-up: T_W_B = A T_Wc_C A^-1, A = T_B_C.
   std::vector<fs::path> pose_files;
   const std::regex pose_name(R"((poses.*|[0-9][0-9])\.txt)");
   for (const auto& e : fs::directory_iterator(root))
@@ -296,6 +308,8 @@ Dataset loadKitti(const fs::path& root) {
              ds.groundtruth.size(), times_file.string(), times.size());
       for (std::size_t i = 0; i < ds.groundtruth.size(); ++i) ds.groundtruth[i].t_ns = times[i];
     }
+    const SE3 A = kittiBodyFromCamera();
+    for (auto& p : ds.groundtruth) p.T_W_B = A * p.T_W_B * A.inverse();
   }
   return ds;
 }

@@ -37,7 +37,7 @@ struct RigInfo {
   bool has_rig_file = false;
 };
 
-/// Everything of a sequence except the pixels. Ground truth is T_W_B (for KITTI, B = camera).
+/// Everything of a sequence except the pixels. Ground truth is T_W_B.
 struct Dataset {
   std::filesystem::path root;
   std::string kind;  // "ovo" (EuRoC/ASL layout) or "kitti"
@@ -56,9 +56,13 @@ struct Dataset {
 ///   lidar0/data.csv, rig.yaml, groundtruth.txt (TUM) or state_groundtruth_estimate0/ (data.csv or
 ///   a TUM .txt), sim/truth_bias.csv;
 /// - KITTI odometry: image_0/*.png, calib.txt (P0), times.txt, optional poses file (poses*.txt or
-///   NN.txt, 3x4 rows with or without a leading time); B = C, the camera height is KITTI's 1.65 m.
+///   NN.txt, 3x4 rows with or without a leading time); the KITTI rig (kittiBodyFromCamera(), camera
+///   1.65 m above the road, pitch 0) and the ground truth turned into T_W_B with W z-up.
 /// Throws ovo::Error naming the file and line on anything missing or malformed.
 Dataset loadDataset(const std::filesystem::path& root);
+
+/// T_B_C of the KITTI rig: body x forward, y left, z up at the camera centre, camera pitch 0.
+SE3 kittiBodyFromCamera();
 
 /// The image as 8-bit grey (colour is converted). Throws ovo::Error naming the file when it is
 /// missing or does not decode.

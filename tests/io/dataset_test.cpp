@@ -83,14 +83,18 @@ TEST(Dataset, Kitti07First160LoadsAsItIs) {
   const auto px = camera::project(*ds.camera, Vec3(1.0, 0.0, 707.0912));
   ASSERT_TRUE(px);
   EXPECT_NEAR(px->x(), 602.8873, 1e-9);
-  EXPECT_TRUE(ds.rig.T_B_C.isApprox(SE3::Identity()));
+  // The KITTI rig: the camera looks along body x, its y axis points down (-z_B).
+  EXPECT_TRUE((ds.rig.T_B_C.linear() * Vec3::UnitZ()).isApprox(Vec3::UnitX()));
+  EXPECT_TRUE((ds.rig.T_B_C.linear() * Vec3::UnitY()).isApprox(-Vec3::UnitZ()));
   ASSERT_TRUE(ds.rig.camera_height_m);
   EXPECT_DOUBLE_EQ(*ds.rig.camera_height_m, 1.65);
   EXPECT_NEAR(ds.rig.camera_rate_hz, 9.6, 0.3);
-  // Ground truth: 1101 rows with a time column; row 1 at 0.1038752 s, z 0.09154274 m.
+  // Ground truth: 1101 rows with a time column; row 1 at 0.1038752 s, camera z (forward)
+  // 0.09154274 m, which is body/world x (forward) after the change to the z-up world.
   ASSERT_EQ(ds.groundtruth.size(), 1101u);
   EXPECT_EQ(ds.groundtruth[1].t_ns, ds.images[1].t_ns);
-  EXPECT_NEAR(ds.groundtruth[1].T_W_B.translation().z(), 0.09154274, 1e-12);
+  EXPECT_NEAR(ds.groundtruth[1].T_W_B.translation().x(), 0.09154274, 1e-12);
+  EXPECT_TRUE(ds.groundtruth[0].T_W_B.isApprox(SE3::Identity(), 1e-6));
   const cv::Mat image = loadImageGrey(ds.images[42]);
   EXPECT_EQ(image.type(), CV_8UC1);
   EXPECT_EQ(image.size(), cv::Size(1226, 370));
