@@ -1,0 +1,186 @@
+#include "io/dataset_writer.hpp"
+
+#include <fmt/format.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <fstream>
+#include <opencv2/imgcodecs.hpp>
+#include <system_error>
+
+#include "camera/calib_io.hpp"
+#include "common/error.hpp"
+#include "io/trajectory_io.hpp"
+
+namespace ovo::io {
+namespace fs = std::filesystem;
+
+namespace {
+
+std::string matrixRow16(const SE3& T) {
+  std::string s = "[";
+  for (int r = 0; r < 4; ++r)
+    for (int c = 0; c < 4; ++c)
+      s += fmt::format("{}{}", r + c == 0 ? "" : ", ", T.matrix()(r, c) + 0.0);  // + 0.0: no "-0"
+  return s + "]";
+}
+
+class TextFile {
+ public:
+  explicit TextFile(const fs::path& path) : path_(path), out_(path) {
+    if (!out_) fail("cannot write '{}'", path.string());
+  }
+  template <typename... Args>
+  void print(fmt::format_string<Args...> format, Args&&... args) {
+    out_ << fmt::format(format, std::forward<Args>(args)...);
+  }
+  void close() {
+    out_.close();
+    if (!out_) fail("writing '{}' failed (disk full?)", path_.string());
+  }
+
+ private:
+  fs::path path_;
+  std::ofstream out_;
+};
+
+}  // namespace
+
+DatasetWriter::DatasetWriter(fs::path out, bool overwrite)
+    : out_(std::move(out)), overwrite_(overwrite) {
+  if (out_.empty()) fail("dataset output folder: empty path");
+  out_ = fs::absolute(out_).lexically_normal();
+  if (out_.filename().empty()) out_ = out_.parent_path();
+  std::error_code ec;
+  if (fs::exists(out_) && !overwrite_) {
+    if (!fs::is_directory(out_) || !fs::is_empty(out_))
+      fail(
+          "output '{}' already exists and is not an empty folder (remove it, choose another, or "
+          "overwrite)",
+          out_.string());
+  }
+  staging_ =
+      out_.parent_path() / fmt::format(".{}.partial-{}", out_.filename().string(), ::getpid());
+  fs::remove_all(staging_, ec);
+  fs::create_directories(staging_ / "cam0" / "data", ec);
+  if (ec) fail("cannot create '{}': {}", staging_.string(), ec.message());
+}
+
+DatasetWriter::~DatasetWriter() {
+  if (!committed_) {
+    std::error_code ec;
+    fs::remove_all(staging_, ec);
+  }
+}
+
+void DatasetWriter::writeImage(Timestamp t_ns, const cv::Mat& grey8) {
+  if (grey8.type() != CV_8UC1) fail("writeImage: expected an 8-bit grey image");
+  const fs::path path = staging_ / "cam0" / "data" / fmt::format("{}.png", t_ns);
+  if (!cv::imwrite(path.string(), grey8, {cv::IMWRITE_PNG_COMPRESSION, 1}))
+    fail("cannot write image '{}'", path.string());
+  std::lock_guard<std::mutex> lock(mutex_);
+  image_stamps_.push_back(t_ns);
+}
+
+void DatasetWriter::writeCamera(const camera::Camera& cam, const SE3& T_B_C, double rate_hz) {
+  if (const auto* ocam = std::get_if<camera::OcamCamera>(&cam)) {
+    camera::writeOcamCalib(staging_ / "cam0" / "calib_results.txt", *ocam);
+  } else {
+    camera::writeSensorYaml(staging_ / "cam0" / "sensor.yaml", cam, T_B_C, rate_hz);
+  }
+}
+
+void DatasetWriter::writeImu(const std::vector<ImuSample>& samples) {
+  fs::create_directories(staging_ / "imu0");
+  TextFile f(staging_ / "imu0" / "data.csv");
+  f.print(
+      "#timestamp [ns],w_RS_S_x [rad s^-1],w_RS_S_y [rad s^-1],w_RS_S_z [rad s^-1],"
+      "a_RS_S_x [m s^-2],a_RS_S_y [m s^-2],a_RS_S_z [m s^-2]\n");
+  for (const auto& s : samples)
+    f.print("{},{},{},{},{},{},{}\n", s.t_ns, s.gyro_radps.x(), s.gyro_radps.y(), s.gyro_radps.z(),
+            s.accel_mps2.x(), s.accel_mps2.y(), s.accel_mps2.z());
+  f.close();
+}
+
+void DatasetWriter::writeLidar(const std::vector<LidarScan>& scans) {
+  fs::create_directories(staging_ / "lidar0");
+  TextFile f(staging_ / "lidar0" / "data.csv");
+  f.print(
+      "#timestamp [ns],angle_min [rad],angle_increment [rad],range_min [m],range_max [m],ranges "
+      "[m]...\n");
+  std::string line;
+  for (const auto& s : scans) {
+    line = fmt::format("{},{},{},{},{}", s.t_ns, s.angle_min_rad, s.angle_increment_rad,
+                       s.range_min_m, s.range_max_m);
+    for (double r : s.ranges_m) line += (r == r) ? fmt::format(",{}", r) : std::string(",nan");
+    line += '\n';
+    f.print("{}", line);
+  }
+  f.close();
+}
+
+void DatasetWriter::writeGroundTruth(const Trajectory& T_W_B) {
+  writeTum(staging_ / "groundtruth.txt", T_W_B);
+}
+
+void DatasetWriter::writeRig(const RigInfo& rig) {
+  TextFile f(staging_ / "rig.yaml");
+  f.print("# Rig of this dataset: extrinsics (row-major 4x4) and sensor noise figures.\n");
+  f.print("T_B_C: {}   # camera -> body\n", matrixRow16(rig.T_B_C));
+  f.print("T_B_L: {}   # LiDAR -> body\n", matrixRow16(rig.T_B_L));
+  f.print("camera: {{rate_hz: {}, pixel_sigma: {}", rig.camera_rate_hz, rig.pixel_sigma);
+  if (rig.camera_height_m) f.print(", height_m: {}", *rig.camera_height_m);
+  f.print("}}   # height_m: camera height above the ground (m)\n");
+  f.print(
+      "gyro: {{rate_hz: {}, noise_density: {}, bias_random_walk: {}}}   # rad/s/sqrt(Hz), "
+      "rad/s^2/sqrt(Hz)\n",
+      rig.gyro_rate_hz, rig.gyro_noise_density, rig.gyro_bias_random_walk);
+  f.print("lidar: {{rate_hz: {}, range_sigma_m: {}}}\n", rig.lidar_rate_hz,
+          rig.lidar_range_sigma_m);
+  f.close();
+}
+
+void DatasetWriter::writeTrueGyroBias(const std::vector<std::pair<Timestamp, Vec3>>& bias) {
+  fs::create_directories(staging_ / "sim");
+  TextFile f(staging_ / "sim" / "truth_bias.csv");
+  f.print("#timestamp [ns],b_x [rad s^-1],b_y [rad s^-1],b_z [rad s^-1]\n");
+  for (const auto& [t, b] : bias) f.print("{},{},{},{}\n", t, b.x(), b.y(), b.z());
+  f.close();
+}
+
+void DatasetWriter::writeText(const fs::path& relative, const std::string& text) {
+  const fs::path path = staging_ / relative;
+  fs::create_directories(path.parent_path());
+  TextFile f(path);
+  f.print("{}", text);
+  f.close();
+}
+
+void DatasetWriter::commit() {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    std::sort(image_stamps_.begin(), image_stamps_.end());
+    TextFile f(staging_ / "cam0" / "data.csv");
+    f.print("#timestamp [ns],filename\n");
+    for (Timestamp t : image_stamps_) f.print("{},{}.png\n", t, t);
+    f.close();
+  }
+  std::error_code ec;
+  if (fs::exists(out_)) {
+    if (overwrite_) {
+      fs::remove_all(out_, ec);
+    } else if (fs::is_directory(out_) && fs::is_empty(out_)) {
+      fs::remove(out_, ec);
+    } else {
+      fail("output '{}' appeared while writing; the dataset is left in '{}'", out_.string(),
+           staging_.string());
+    }
+    if (ec) fail("cannot replace '{}': {}", out_.string(), ec.message());
+  }
+  fs::create_directories(out_.parent_path(), ec);
+  fs::rename(staging_, out_, ec);
+  if (ec) fail("cannot move '{}' to '{}': {}", staging_.string(), out_.string(), ec.message());
+  committed_ = true;
+}
+
+}  // namespace ovo::io

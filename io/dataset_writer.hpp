@@ -1,0 +1,60 @@
+// Writing a dataset folder in the ovo/EuRoC layout (DESIGN.md section 10), as `ovo simulate` does:
+// everything goes into a hidden staging folder beside the target, renamed into place by commit(),
+// so a failed or interrupted run never leaves a half-written dataset behind.
+#pragma once
+
+#include <filesystem>
+#include <mutex>
+#include <opencv2/core.hpp>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "camera/camera.hpp"
+#include "common/types.hpp"
+#include "io/dataset.hpp"
+
+namespace ovo::io {
+
+class DatasetWriter {
+ public:
+  /// Prepares a staging folder for `out`. Throws ovo::Error when `out` exists and is not empty
+  /// (unless overwrite, which replaces it at commit()), or when the folder cannot be created.
+  explicit DatasetWriter(std::filesystem::path out, bool overwrite = false);
+  /// Removes the staging folder unless commit() succeeded.
+  ~DatasetWriter();
+  DatasetWriter(const DatasetWriter&) = delete;
+  DatasetWriter& operator=(const DatasetWriter&) = delete;
+
+  const std::filesystem::path& stagingDir() const { return staging_; }
+
+  /// cam0/data/<t_ns>.png (8-bit grey, lossless). Thread-safe.
+  void writeImage(Timestamp t_ns, const cv::Mat& grey8);
+  /// cam0/calib_results.txt for an OCamCalib camera, cam0/sensor.yaml (EuRoC) for the others.
+  void writeCamera(const camera::Camera& camera, const SE3& T_B_C, double rate_hz);
+  /// imu0/data.csv (gyro rad/s, accelerometer m/s^2, in B).
+  void writeImu(const std::vector<ImuSample>& samples);
+  /// lidar0/data.csv, one scan a row; no return written as nan.
+  void writeLidar(const std::vector<LidarScan>& scans);
+  /// groundtruth.txt (TUM, T_W_B).
+  void writeGroundTruth(const Trajectory& T_W_B);
+  /// rig.yaml (T_B_C, T_B_L and the noise figures).
+  void writeRig(const RigInfo& rig);
+  /// sim/truth_bias.csv: the true gyro bias (rad/s).
+  void writeTrueGyroBias(const std::vector<std::pair<Timestamp, Vec3>>& bias);
+  /// Any text file at a path relative to the dataset root (e.g. sim/scenario.yaml).
+  void writeText(const std::filesystem::path& relative, const std::string& text);
+
+  /// Writes cam0/data.csv for the images written so far and moves the folder into place.
+  void commit();
+
+ private:
+  std::filesystem::path out_;
+  std::filesystem::path staging_;
+  bool overwrite_ = false;
+  bool committed_ = false;
+  std::mutex mutex_;
+  std::vector<Timestamp> image_stamps_;
+};
+
+}  // namespace ovo::io

@@ -1,0 +1,75 @@
+// One simulated sequence: the scenario's world, trajectory, camera, rig and sensor models, and the
+// calls that produce its frames, IMU samples, LiDAR scans and ground truth (the `ovo simulate`
+// command writes them out). Deterministic for a seed: every random draw comes from a stream
+// derived from the scenario seed and the sample's index, so frames may be rendered in any order.
+#pragma once
+
+#include <memory>
+#include <opencv2/core.hpp>
+#include <vector>
+
+#include "camera/camera.hpp"
+#include "common/types.hpp"
+#include "sim/imu.hpp"
+#include "sim/renderer.hpp"
+#include "sim/scenario.hpp"
+#include "sim/trajectory.hpp"
+#include "sim/world.hpp"
+
+namespace ovo::sim {
+
+/// The scenario's camera: camera::loadCamera(calibration) or an ideal pinhole of the given field of
+/// view. Throws ovo::Error when the calibration file is unusable.
+camera::Camera makeCamera(const CameraOptions& options);
+
+class Simulation {
+ public:
+  /// Builds everything except images; throws ovo::Error for an unusable camera file.
+  explicit Simulation(const Scenario& scenario);
+  /// With a given camera (tests, benchmarks).
+  Simulation(const Scenario& scenario, const camera::Camera& camera);
+
+  const Scenario& scenario() const { return scenario_; }
+  const VineyardWorld& world() const { return *world_; }
+  VineyardWorld& world() { return *world_; }
+  const BodyTrajectory& trajectory() const { return trajectory_; }
+  const camera::Camera& camera() const { return camera_; }
+  const Renderer& renderer() const { return *renderer_; }
+  const SE3& T_B_C() const { return T_B_C_; }
+  const SE3& T_B_L() const { return T_B_L_; }
+
+  /// Camera frames: k = 0 .. frameCount() - 1 at frameTime(k) seconds from the start.
+  int frameCount() const { return frames_; }
+  double frameTime(int k) const;
+  Timestamp frameStamp(int k) const { return scenario_.start_time_ns + frameOffsetNs(k); }
+  /// Length of the sequence (s): the last frame's time.
+  double duration() const { return frameTime(std::max(0, frames_ - 1)); }
+
+  /// Frame k as 8-bit grey with exposure, noise, blur and people as the scenario says.
+  cv::Mat renderFrame(int k) const;
+  /// Relative exposure gain at time t (1 when exposure changes are off).
+  double exposureGain(double t_s) const;
+
+  std::vector<ImuSample> imu(std::vector<GyroBiasSample>* true_gyro_bias = nullptr) const;
+  /// Scans on every (camera rate / LiDAR rate)-th frame, stamped exactly like those frames.
+  std::vector<LidarScan> lidar() const;
+  /// T_W_B at every camera frame.
+  ovo::Trajectory groundTruth() const;
+  /// Camera centre's height above the terrain at the start (m).
+  double cameraHeightM() const;
+
+ private:
+  void build();
+  Timestamp frameOffsetNs(int k) const;
+
+  Scenario scenario_;
+  camera::Camera camera_;
+  std::unique_ptr<VineyardWorld> world_;
+  std::unique_ptr<Renderer> renderer_;
+  BodyTrajectory trajectory_;
+  SE3 T_B_C_, T_B_L_;
+  int frames_ = 0;
+  double gain_phase_[3] = {0.0, 0.0, 0.0};
+};
+
+}  // namespace ovo::sim

@@ -1,0 +1,120 @@
+// The synthetic vineyard that the camera and the LiDAR see: a planar sloped terrain, rows of vines
+// (see-through leaf layers, trunks, posts, wires), headland track, meadow, distant hills and a
+// cloudy sky, plus optional walking people and test markers. Rays are intersected analytically and
+// shaded with band-limited procedural textures; a pixel's angular footprint drives analytic
+// anti-aliasing (box-filtered silhouettes, alpha-composited coverage, texture octaves faded below
+// two pixels). World W: z up (gravity -z); row i runs along +x at y = i * row_spacing_m, x in [0,
+// row_length_m].
+#pragma once
+
+#include <algorithm>
+#include <cstdint>
+#include <optional>
+#include <vector>
+
+#include "common/types.hpp"
+#include "sim/scenario.hpp"
+
+namespace ovo::sim {
+
+/// A person walking a straight line on the ground during [t_begin_s, t_end_s].
+struct Walker {
+  Vec2 start_xy_W = Vec2::Zero();     // ground position at t_begin_s (m)
+  Vec2 velocity_xy_W = Vec2::Zero();  // m/s
+  double t_begin_s = 0.0, t_end_s = 0.0;
+  float shirt_tone = 0.7f, trousers_tone = 0.2f;  // grey levels / 255
+};
+
+/// A uniformly bright sphere (a target for projection tests).
+struct Marker {
+  Vec3 centre_W = Vec3::Zero();
+  double radius_m = 0.05;
+  float tone = 1.0f;
+};
+
+class VineyardWorld {
+ public:
+  VineyardWorld(const WorldOptions& options, std::uint64_t seed);
+
+  const WorldOptions& options() const { return opt_; }
+  /// Terrain height z at (x, y): the plane z = grade * x + side_tilt * y.
+  double groundHeight(double x_W, double y_W) const { return gx_ * x_W + gy_ * y_W; }
+  /// Unit terrain normal (points up).
+  const Vec3& groundNormal() const { return normal_W_; }
+  /// Terrain frame T: x along the rows (up the grade), z = terrain normal, origin at W's origin.
+  const Mat3& R_W_T() const { return R_W_T_; }
+  double rowY(int row) const { return row * opt_.row_spacing_m; }
+  /// Centre line between rows k and k + 1.
+  double interrowY(int k) const { return (k + 0.5) * opt_.row_spacing_m; }
+
+  void setWalkers(std::vector<Walker> walkers) { walkers_ = std::move(walkers); }
+  const std::vector<Walker>& walkers() const { return walkers_; }
+  void setMarkers(std::vector<Marker> markers) { markers_ = std::move(markers); }
+
+  /// Grey radiance (display units, 1 = white) along the unit ray d_W from o_W at time t_s, filtered
+  /// over a pixel of angular width footprint_rad.
+  float radiance(const Vec3& o_W, const Vec3& d_W, double footprint_rad, double t_s) const;
+
+  /// Distance along the unit ray to the first opaque surface (leaf coverage >= 0.5; trunks, posts,
+  /// ground, people), as a LiDAR beam sees it; nullopt when nothing is closer than max_range_m.
+  std::optional<double> firstOpaqueHit(const Vec3& o_W, const Vec3& d_W, double max_range_m,
+                                       double t_s) const;
+
+  struct Hit {
+    double t;     // distance along the ray (m)
+    float alpha;  // coverage in [0, 1]
+    float tone;   // grey radiance
+  };
+  static constexpr int kMaxHits = 64;
+  struct HitList {
+    Hit hits[kMaxHits];
+    int n = 0;
+    float transmittance = 1.0f;  // product of (1 - alpha) so far
+    double t_max = 0.0;          // farthest hit so far
+    double t_opaque = 1e30;      // nothing beyond this distance shows
+    void add(double t, float alpha, float tone) {
+      if (n < kMaxHits && alpha > 1e-3f && t < t_opaque) {
+        hits[n++] = {t, alpha, tone};
+        transmittance *= 1.0f - alpha;
+        t_max = std::max(t_max, t);
+        if (transmittance < 2e-3f) t_opaque = t_max;
+      }
+    }
+  };
+
+ private:
+  struct Plant {
+    double x;       // trunk position along the row
+    double dy;      // lateral offset of the trunk
+    double radius;  // trunk radius
+    bool missing;   // a gap in the row
+  };
+
+  void collect(const Vec3& o, const Vec3& d, double fp, double t_s, double t_limit,
+               HitList* out) const;
+  void collectRow(int row, const Vec3& o, const Vec3& d, double fp, double t0, double t1,
+                  double t_limit, HitList* out) const;
+  void addVerticalCylinder(const Vec3& o, const Vec3& d, double fp, double t_limit, double cx,
+                           double cy, double radius, double height, float tone,
+                           std::uint32_t texture_seed, HitList* out) const;
+  float layerCoverage(int row, int layer, double x, double h, double fp_m, float* tone) const;
+  float groundTone(double x, double y, double fp_m) const;
+  float skyTone(const Vec3& d, double fp) const;
+  float backdropTone(double arc_m, double z, double fp_m) const;
+
+  WorldOptions opt_;
+  std::uint64_t seed_;
+  std::uint32_t tex_seed_;
+  double gx_, gy_;
+  Vec3 normal_W_;
+  Mat3 R_W_T_;
+  Vec3 sun_W_;
+  Vec2 backdrop_centre_;
+  double shadow_shift_y_;
+  std::vector<std::vector<Plant>> plants_;  // per row
+  std::vector<double> post_x_;              // along every row
+  std::vector<Walker> walkers_;
+  std::vector<Marker> markers_;
+};
+
+}  // namespace ovo::sim

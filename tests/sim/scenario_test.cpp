@@ -1,0 +1,88 @@
+#include "sim/scenario.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+
+#include "common/config.hpp"
+#include "common/error.hpp"
+#include "sim/simulation.hpp"
+#include "tests/sim/sim_test_support.hpp"
+
+namespace ovo::sim {
+namespace {
+
+std::string errorOf(const std::string& yaml) {
+  try {
+    readScenario(Config::fromString(yaml, "scenario.yaml"));
+  } catch (const Error& e) {
+    return e.what();
+  }
+  return "";
+}
+
+TEST(Scenario, UnknownKeyIsAnErrorNamingTheKeyAndLine) {
+  const std::string msg = errorOf("camera:\n  model: pinhole\nworld:\n  row_spacing: 2.5\n");
+  EXPECT_NE(msg.find("world.row_spacing"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("scenario.yaml:4"), std::string::npos) << msg;
+}
+
+TEST(Scenario, OutOfRangeValueNamesTheKey) {
+  const std::string msg = errorOf("camera:\n  model: pinhole\nworld:\n  grade_pct: 120\n");
+  EXPECT_NE(msg.find("world.grade_pct"), std::string::npos) << msg;
+}
+
+TEST(Scenario, LidarRateMustDivideCameraRate) {
+  const std::string msg =
+      errorOf("camera:\n  model: pinhole\n  rate_hz: 20\nlidar:\n  rate_hz: 7\n");
+  EXPECT_NE(msg.find("lidar.rate_hz"), std::string::npos) << msg;
+}
+
+TEST(Scenario, MissingCalibrationFileIsAnError) {
+  const std::string msg = errorOf("camera:\n  calibration: no/such/calib_results.txt\n");
+  EXPECT_NE(msg.find("camera.calibration"), std::string::npos) << msg;
+}
+
+TEST(Scenario, EveryShippedScenarioLoadsAndBuilds) {
+  int count = 0;
+  for (const auto& entry :
+       std::filesystem::directory_iterator(::ovo::test::sourcePath("configs/sim"))) {
+    if (entry.path().extension() != ".yaml") continue;
+    SCOPED_TRACE(entry.path().string());
+    const Scenario s = readScenario(Config::load(entry.path()));
+    const Simulation sim(s);
+    EXPECT_GT(sim.frameCount(), 20);
+    EXPECT_GT(sim.trajectory().duration(), 1.0);
+    ++count;
+  }
+  EXPECT_GE(count, 6);
+}
+
+TEST(Scenario, WrittenScenarioReadsBackTheSame) {
+  Scenario s = test::defaultScenario();
+  s.seed = 77;
+  s.world.grade_pct = 25.0;
+  s.trajectory.kind = "spin";
+  s.lidar.mount.pitch_down_deg = 5.0;
+  const Scenario back = readScenario(Config::fromString(scenarioYaml(s), "written.yaml"));
+  EXPECT_EQ(back.seed, 77u);
+  EXPECT_EQ(back.world.grade_pct, 25.0);
+  EXPECT_EQ(back.trajectory.kind, "spin");
+  EXPECT_EQ(back.lidar.mount.pitch_down_deg, 5.0);
+  EXPECT_EQ(back.camera.calibration, s.camera.calibration);
+  EXPECT_EQ(scenarioYaml(back), scenarioYaml(s));
+}
+
+TEST(Scenario, CameraMountLooksForwardAndDown) {
+  MountOptions m;
+  m.pitch_down_deg = 10.0;
+  const SE3 T_B_C = cameraMountTransform(m);
+  const Vec3 z_C_in_B = T_B_C.linear().col(2);                       // optical axis
+  EXPECT_GT(z_C_in_B.x(), 0.98);                                     // forward
+  EXPECT_NEAR(z_C_in_B.z(), -std::sin(10.0 * M_PI / 180.0), 1e-12);  // down
+  EXPECT_NEAR(T_B_C.linear().col(0).y(), -1.0, 1e-12);               // camera x = right = -y_B
+}
+
+}  // namespace
+}  // namespace ovo::sim
