@@ -1,10 +1,12 @@
 // `ovo eval`: compares an estimated trajectory with ground truth and prints the metrics as one
 // JSON object (ATE after Umeyama alignment, optional RPE; evo's semantics, see eval/metrics.hpp).
 #include <cmath>
+#include <fstream>
 #include <iostream>
 #include <nlohmann/json.hpp>
 
 #include "apps/command.hpp"
+#include "apps/svg_plot.hpp"
 #include "common/error.hpp"
 #include "eval/metrics.hpp"
 #include "io/trajectory_io.hpp"
@@ -21,7 +23,25 @@ struct EvalArgs {
   double max_diff_s = 0.02;
   bool rpe_pairs_from_reference = false;
   bool rpe_asked = false;  // --rpe-delta was given
+  std::string plot;        // --plot OUT.svg
 };
+
+// --plot: top view (SE(3)-aligned) and position/yaw error of the matched poses as one SVG.
+void writeComparisonPlot(const EvalArgs& args, const eval::Associated& pairs, bool by_index) {
+  Trajectory ref = pairs.ref, est = pairs.est;
+  for (std::size_t i = 0; i < ref.size(); ++i) {
+    if (by_index) ref[i].t_ns = static_cast<Timestamp>(i) * 1'000'000'000;  // 1 "s" per pose
+    est[i].t_ns = ref[i].t_ns;  // already matched: pair i with i
+  }
+  const auto c = app::compareTrajectories(ref, est, 0);
+  if (!c) fail("--plot: {} matched poses, at least 3 are needed for a plot", ref.size());
+  const std::string title = std::filesystem::path(args.est).filename().string() + " vs " +
+                            std::filesystem::path(args.gt).filename().string();
+  std::ofstream out(args.plot);
+  if (!out) fail("--plot: cannot write '{}'", args.plot);
+  out << app::svgComparisonDocument(*c, title, by_index ? "pose index" : "time [s]");
+  if (!out) fail("--plot: error while writing '{}'", args.plot);
+}
 
 nlohmann::ordered_json statsJson(const eval::Stats& s, bool full) {
   nlohmann::ordered_json j = {
@@ -78,6 +98,7 @@ int runEval(const EvalArgs& args) {
   out["align"] = eval::alignModeName(*align);
   out["scale"] = ate->alignment.scale;
   out["ate"] = statsJson(ate->trans_m, true);
+  if (!args.plot.empty()) writeComparisonPlot(args, pairs, by_index);
 
   if (args.rpe_asked) {
     eval::RpeOptions options;
@@ -114,6 +135,8 @@ CommandRunner setupEval(CLI::App& sub) {
                "Pick RPE pairs on the reference path (evo's default picks them on the estimate)");
   sub.add_option("--max-diff", args->max_diff_s, "Max. time difference for association [s]")
       ->capture_default_str();
+  sub.add_option("--plot", args->plot,
+                 "Write an SVG: top view (SE(3)-aligned) and position/yaw error over time");
   return [args, rpe_delta] {
     args->rpe_asked = rpe_delta->count() > 0;
     return runEval(*args);

@@ -14,7 +14,11 @@ PACKAGES=(build-essential cmake ninja-build ccache pkg-config
   libeigen3-dev libceres-dev libsuitesparse-dev libopencv-dev
   pocl-opencl-icd ocl-icd-opencl-dev opencl-headers
   libgtest-dev libgmock-dev libbenchmark-dev
-  libcli11-dev nlohmann-json3-dev libspdlog-dev libfmt-dev libyaml-cpp-dev libtbb-dev)
+  libcli11-dev nlohmann-json3-dev libspdlog-dev libfmt-dev libyaml-cpp-dev libtbb-dev
+  xvfb xauth)
+# Only the test command needs a browser (report.html is rendered in headless Chromium; the test
+# skips without it).
+if [ "$MODE" = test ]; then PACKAGES+=(chromium); fi
 
 missing=()
 for p in "${PACKAGES[@]}"; do
@@ -42,8 +46,14 @@ cmake --build "$BUILD" -j "$JOBS"
 case "$MODE" in
   build) ;;
   run)
+    # The built-in default: the simulated vineyard (two rows joined by a headland U-turn).
     OUT=${OVO_DEMO_OUT:-$ROOT/out/demo}
-    "$BUILD/ovo" demo --out "$OUT"
+    SCENARIO=${OVO_DEMO_SCENARIO:-$ROOT/configs/sim/vineyard_row.yaml}
+    echo "ovo: simulating $(basename "$SCENARIO" .yaml) into $OUT/data"
+    "$BUILD/ovo" simulate --config "$SCENARIO" --out "$OUT/data"
+    echo "ovo: running the window estimator"
+    "$BUILD/ovo" run --dataset "$OUT/data" --estimator "${OVO_DEMO_ESTIMATOR:-window}" --out "$OUT/run"
+    echo "ovo: trajectory, metrics and report in $OUT/run"
     ;;
   test)
     cd "$BUILD"

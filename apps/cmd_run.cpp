@@ -1,0 +1,225 @@
+// `ovo run`: runs an estimator over a dataset and writes trajectory.txt, keyframes.txt,
+// metrics.json and report.html into --out, all through a temporary folder: a failed run leaves
+// nothing half-written. --realtime replays the dataset at sensor rate through the threaded
+// online pipeline (frames dropped when behind, latency measured); --viewer shows the live window.
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+
+#include "apps/command.hpp"
+#include "apps/offline_runner.hpp"
+#include "apps/online_replay.hpp"
+#include "apps/progress.hpp"
+#include "apps/report.hpp"
+#include "apps/run_metrics.hpp"
+#include "apps/viewer.hpp"
+#include "common/error.hpp"
+#include "io/dataset.hpp"
+#include "io/trajectory_io.hpp"
+
+namespace ovo::app {
+namespace {
+
+struct RunArgs {
+  std::string dataset;
+  std::string config;
+  std::string estimator = "window";
+  std::string out;
+  std::string gt;
+  std::vector<std::string> sets;
+  bool quiet = false;
+  bool realtime = false;
+  double rate = 1.0;
+  int queue_depth = 2;
+  bool viewer = false;
+  std::string viewer_snapshot;
+};
+
+// The scan nearest in time to t_ns (null when there is none).
+const LidarScan* nearestScan(const std::vector<LidarScan>& scans, Timestamp t_ns) {
+  const auto it = std::lower_bound(scans.begin(), scans.end(), t_ns,
+                                   [](const LidarScan& s, Timestamp t) { return s.t_ns < t; });
+  const LidarScan* best = it != scans.end() ? &*it : nullptr;
+  if (it != scans.begin() && (!best || t_ns - std::prev(it)->t_ns < best->t_ns - t_ns))
+    best = &*std::prev(it);
+  return best;
+}
+
+void writeText(const std::filesystem::path& file, const std::string& text) {
+  std::ofstream out(file);
+  if (!out) fail("cannot write '{}'", file.string());
+  out << text;
+  if (!out) fail("error while writing '{}'", file.string());
+}
+
+int runRun(const RunArgs& args) {
+  Config config;
+  if (!args.config.empty()) config = Config::load(args.config);
+  config.applyOverrides(args.sets);
+
+  const io::Dataset data = io::loadDataset(args.dataset);
+  if (data.images.empty()) fail("{}: the dataset has no images", args.dataset);
+  Trajectory groundtruth = data.groundtruth;
+  if (!args.gt.empty()) groundtruth = io::readTrajectory(args.gt).poses;
+
+  const estimator::SensorSetup setup = sensorSetupFrom(data);
+  auto est = estimator::makeEstimator(args.estimator, setup, config);
+  config.checkAllUsed();  // unknown keys are errors, before any work is done
+  spdlog::info("ovo run: {} on {} ({} frames, {} gyro samples, {} scans, camera {})", est->name(),
+               args.dataset, data.images.size(), data.imu.size(), data.scans.size(),
+               camera::modelName(setup.camera));
+
+  std::unique_ptr<Viewer> viewer;
+  if (args.viewer || !args.viewer_snapshot.empty()) {
+    if (args.viewer) Viewer::checkDisplay();
+    ViewerOptions options;
+    options.show_window = args.viewer;
+    options.window_title = "ovo run: " + est->name();
+    viewer = std::make_unique<Viewer>(setup, est->name(), options);
+    // The run's time span only (a ground-truth file may cover a whole sequence).
+    Trajectory gt_span;
+    for (const auto& p : groundtruth)
+      if (p.t_ns >= data.images.front().t_ns - 100'000'000 &&
+          p.t_ns <= data.images.back().t_ns + 100'000'000)
+        gt_span.push_back(p);
+    viewer->setGroundTruth(gt_span);
+  }
+
+  ProgressBar bar(est->name() + (args.realtime ? " (realtime)" : ""), !args.quiet);
+  const ProgressFn progress = [&](int done, int total) { bar.update(done, total); };
+  std::vector<estimator::FrameEstimate> frames;
+  RunTiming timing;
+  double replay_lag_ms_max = 0.0;
+  auto work = [&] {
+    if (args.realtime) {
+      RealtimeOptions options;
+      options.rate = args.rate;
+      options.pipeline.image_queue_depth = args.queue_depth;
+      OnlinePipeline::OutputCallback on_output;
+      if (viewer)
+        on_output = [&](const OnlineOutput& o) {
+          if (o.last_scan) viewer->addScan(*o.last_scan);
+          viewer->addFrame(o.estimate, o.grey, {o.frames_dropped, o.latency_ms});
+        };
+      RealtimeRunResult r = runRealtime(data, *est, options, on_output, progress);
+      frames = std::move(r.frames);
+      timing.wall_s = r.wall_s;
+      timing.frames_in = r.stats.frames_in;
+      timing.frames_dropped = r.stats.frames_dropped;
+      timing.latency_ms = r.stats.latency_ms;
+      replay_lag_ms_max = r.replay_lag_ms_max;
+    } else {
+      FrameFn on_frame;
+      if (viewer)
+        on_frame = [&](const estimator::FrameEstimate& f, const cv::Mat& grey) {
+          if (const LidarScan* scan = nearestScan(data.scans, f.t_ns)) viewer->addScan(*scan);
+          viewer->addFrame(f, grey);
+        };
+      OfflineRunResult r = runOffline(data, *est, progress, on_frame);
+      frames = std::move(r.frames);
+      timing.wall_s = r.wall_s;
+    }
+  };
+  if (args.viewer)
+    runWithViewer(*viewer, work);
+  else
+    work();
+  bar.finish();
+  if (viewer && !args.viewer_snapshot.empty()) {
+    viewer->saveSnapshot(args.viewer_snapshot);
+    spdlog::info("viewer snapshot: {}", args.viewer_snapshot);
+  }
+  if (args.realtime)
+    spdlog::info(
+        "realtime: {} of {} frames processed, {} dropped, latency median {:.1f} ms, p99 {:.1f} ms",
+        frames.size(), timing.frames_in, timing.frames_dropped.value_or(0),
+        percentile(timing.latency_ms, 50), percentile(timing.latency_ms, 99));
+  const Trajectory trajectory = est->trajectory();
+
+  for (const auto& f : frames) {
+    timing.frontend_ms.push_back(f.frontend_ms);
+    timing.estimator_ms.push_back(f.estimator_ms);
+    timing.total_ms.push_back(f.frontend_ms + f.estimator_ms);
+  }
+  timing.sequence_s = toSeconds(data.images.back().t_ns - data.images.front().t_ns) +
+                      1.0 / std::max(1.0, setup.camera_rate_hz);
+  for (const auto& p : trajectory)
+    if (!allFinite(p.T_W_B))
+      fail("internal error: the estimator produced a non-finite pose at t = {} ns", p.t_ns);
+
+  nlohmann::json metrics = computeRunMetrics(trajectory, groundtruth, est->stats(), timing);
+  if (args.realtime) {
+    metrics["realtime_rate"] = args.rate;
+    metrics["timing"]["replay_lag_ms_max"] = replay_lag_ms_max;
+  }
+
+  if (!args.out.empty()) {
+    const std::filesystem::path out = args.out;
+    const std::filesystem::path tmp = out.string() + ".tmp-ovo";
+    std::filesystem::remove_all(tmp);
+    std::filesystem::create_directories(tmp);
+    io::writeTum(tmp / "trajectory.txt", trajectory);
+    io::writeTum(tmp / "keyframes.txt", est->keyframes());
+    writeText(tmp / "metrics.json", metrics.dump(2) + "\n");
+    writeText(tmp / "config.yaml", config.dump() + "\n");
+    ReportInputs report;
+    report.estimator = est->name();
+    report.dataset = args.dataset;
+    report.mode = args.realtime ? fmt::format("realtime replay at {}x", args.rate) : "offline";
+    report.estimate = trajectory;
+    report.groundtruth = groundtruth;
+    report.bias_estimate = est->biasHistory();
+    report.bias_truth = data.true_gyro_bias;
+    for (std::size_t i = 0; i < frames.size(); ++i)
+      report.timing.push_back({frames[i].t_ns, frames[i].frontend_ms, frames[i].estimator_ms,
+                               i < timing.latency_ms.size() ? timing.latency_ms[i] : -1.0});
+    report.metrics = metrics;
+    report.config_yaml = config.dump();
+    writeReport(tmp / "report.html", report);
+    std::filesystem::remove_all(out);
+    if (out.has_parent_path()) std::filesystem::create_directories(out.parent_path());
+    std::filesystem::rename(tmp, out);
+    spdlog::info("wrote {}", out.string());
+  }
+  if (!args.quiet) std::cout << metrics.dump(2) << std::endl;
+  return 0;
+}
+
+CommandRunner setupRun(CLI::App& sub) {
+  auto args = std::make_shared<RunArgs>();
+  sub.add_option("--dataset", args->dataset, "Dataset folder (ovo/EuRoC layout or KITTI odometry)")
+      ->required();
+  sub.add_option("--config", args->config, "Estimator configuration (YAML)");
+  sub.add_option("--estimator", args->estimator, "window (default), kf or vo")
+      ->check(CLI::IsMember({"window", "kf", "vo"}));
+  sub.add_option("--out", args->out,
+                 "Output folder (trajectory.txt, keyframes.txt, metrics.json, report.html)");
+  sub.add_option("--gt", args->gt,
+                 "Ground truth trajectory (TUM, KITTI with or without time, EuRoC csv)");
+  sub.add_option("--set", args->sets, "Override a configuration key: key.path=value (repeatable)");
+  sub.add_flag("--quiet", args->quiet, "Do not print the metrics");
+  sub.add_flag("--realtime", args->realtime,
+               "Replay at sensor rate through the threaded online pipeline (drops frames when "
+               "behind; metrics gain latency_ms_median/_p99 and frames_dropped)");
+  sub.add_option("--rate", args->rate, "Replay speed factor for --realtime (2 = twice as fast)")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  sub.add_option("--queue-depth", args->queue_depth,
+                 "Camera frames that may wait for the estimator in --realtime (oldest dropped)")
+      ->check(CLI::Range(1, 1000))
+      ->capture_default_str();
+  sub.add_flag("--viewer", args->viewer,
+               "Live window: image with tracks and LiDAR points, top view (needs a display)");
+  sub.add_option("--viewer-snapshot", args->viewer_snapshot,
+                 "Write the viewer's final canvas to this PNG (no display needed)");
+  return [args] { return runRun(*args); };
+}
+
+}  // namespace
+
+OVO_REGISTER_COMMAND(run, "Run an estimator over a dataset", setupRun);
+
+}  // namespace ovo::app

@@ -1,0 +1,111 @@
+// The live API (DESIGN section 1, Kimera-VIO / OKVIS style): feed images, gyro samples and LiDAR
+// scans from any thread and any source, get poses by callback. This class owns the queues and
+// the processing thread; the estimator it drives has no threads and is the same code the offline
+// runner calls.
+//
+// Queues: images are bounded (OnlineOptions::image_queue_depth); when the estimator falls behind,
+// the oldest waiting frame is dropped and counted. Gyro samples and scans are never dropped: they
+// wait in unbounded queues and are fed in time order before the image they precede (the gyro up
+// to and including the first sample at or after the frame time, as the offline runner does).
+//
+// Granularity: the Estimator interface does frontend and estimation in one addImage() call, so
+// there is one processing thread; a frontend/backend split would need that interface split.
+#pragma once
+
+#include <chrono>
+#include <condition_variable>
+#include <deque>
+#include <functional>
+#include <memory>
+#include <mutex>
+#include <opencv2/core.hpp>
+#include <thread>
+#include <vector>
+
+#include "estimator/estimator.hpp"
+
+namespace ovo::app {
+
+struct OnlineOptions {
+  int image_queue_depth = 2;   // frames waiting for the estimator; beyond it the oldest is dropped
+  double gyro_wait_ms = 50.0;  // a frame waits at most this long (from addImage) for the gyro
+                               // sample at or after its time, once any gyro sample has been seen
+};
+
+/// One processed frame, handed to the output callback.
+struct OnlineOutput {
+  estimator::FrameEstimate estimate;
+  cv::Mat grey;                                // the image that was processed (do not modify)
+  std::shared_ptr<const LidarScan> last_scan;  // latest scan fed before it (may be null)
+  double latency_ms = 0.0;                     // addImage() -> pose out [ms]
+  int frames_dropped = 0;                      // so far
+};
+
+struct OnlineStats {
+  int frames_in = 0;         // images accepted by addImage
+  int frames_processed = 0;  // images the estimator processed
+  int frames_dropped = 0;    // images dropped because the estimator was behind
+  int rejected = 0;          // measurements refused (time not increasing, after stop)
+  long gyro_in = 0, scans_in = 0;
+  std::vector<double> latency_ms;  // per processed frame
+  double latencyMedianMs() const;
+  double latencyP99Ms() const;
+};
+
+class OnlinePipeline {
+ public:
+  /// Called on the processing thread after each frame; keep it short (copy what you need).
+  using OutputCallback = std::function<void(const OnlineOutput&)>;
+
+  /// `estimator` must outlive the pipeline and must not be used elsewhere until stop().
+  OnlinePipeline(estimator::Estimator& estimator, OnlineOptions options, OutputCallback callback);
+  ~OnlinePipeline();  // stop()
+  OnlinePipeline(const OnlinePipeline&) = delete;
+  OnlinePipeline& operator=(const OnlinePipeline&) = delete;
+
+  /// Starts the processing thread (measurements added before are queued, not lost).
+  void start();
+  /// Processes the frames still queued, feeds the remaining gyro samples and scans, calls
+  /// Estimator::finish() and joins the thread. Idempotent. Rethrows an exception the estimator
+  /// or the callback threw on the processing thread.
+  void stop();
+  bool running() const;
+
+  /// Thread-safe. 8-bit grey, BGR or BGRA (converted to grey; the data is copied). Returns false
+  /// (and counts it as rejected) when t_ns is not after the previous image or after stop().
+  /// Throws ovo::Error for an empty image or another pixel type.
+  bool addImage(Timestamp t_ns, const cv::Mat& image);
+  /// Thread-safe; false when not after the previous sample or after stop().
+  bool addGyro(const ImuSample& sample);
+  bool addScan(const LidarScan& scan);
+
+  OnlineStats stats() const;
+
+ private:
+  using Clock = std::chrono::steady_clock;
+  struct PendingImage {
+    Timestamp t_ns;
+    cv::Mat grey;
+    Clock::time_point arrival;
+  };
+  void run();
+  bool gyroReady(const PendingImage& image, Clock::time_point now) const;  // under mutex_
+
+  estimator::Estimator& estimator_;
+  const OnlineOptions options_;
+  const OutputCallback callback_;
+
+  mutable std::mutex mutex_;
+  std::condition_variable wake_;
+  std::deque<PendingImage> images_;
+  std::deque<ImuSample> gyro_;
+  std::deque<LidarScan> scans_;
+  Timestamp last_image_t_ = 0, last_gyro_t_ = 0, last_scan_t_ = 0;
+  bool any_image_ = false, any_gyro_ = false, any_scan_ = false;
+  bool started_ = false, stopping_ = false, stopped_ = false;
+  OnlineStats stats_;
+  std::exception_ptr error_;
+  std::thread thread_;
+};
+
+}  // namespace ovo::app

@@ -1,0 +1,76 @@
+#include "apps/online_replay.hpp"
+
+#include <chrono>
+#include <limits>
+#include <thread>
+
+#include "common/error.hpp"
+
+namespace ovo::app {
+
+RealtimeRunResult runRealtime(const io::Dataset& data, estimator::Estimator& est,
+                              const RealtimeOptions& options,
+                              const OnlinePipeline::OutputCallback& on_output,
+                              const ProgressFn& progress) {
+  if (!(options.rate > 0.0)) fail("--rate: expected a replay speed > 0, got {}", options.rate);
+  RealtimeRunResult result;
+  OnlinePipeline pipeline(est, options.pipeline, [&](const OnlineOutput& out) {
+    estimator::FrameEstimate f = out.estimate;
+    f.tracks.clear();
+    result.frames.push_back(std::move(f));  // processing thread only; read after stop()
+    if (on_output) on_output(out);
+  });
+
+  using Clock = std::chrono::steady_clock;
+  constexpr Timestamp kNever = std::numeric_limits<Timestamp>::max();
+  const std::size_t n_images = data.images.size();
+  std::size_t next_image = 0, next_imu = 0, next_scan = 0;
+  auto timeOf = [&](std::size_t i, std::size_t n, auto&& get) { return i < n ? get(i) : kNever; };
+  Timestamp t0 = kNever;
+  if (n_images) t0 = std::min(t0, data.images.front().t_ns);
+  if (!data.imu.empty()) t0 = std::min(t0, data.imu.front().t_ns);
+  if (!data.scans.empty()) t0 = std::min(t0, data.scans.front().t_ns);
+
+  cv::Mat prefetched;  // the next image, decoded ahead of its time
+  if (n_images) prefetched = io::loadImageGrey(data.images.front());
+  const auto start = Clock::now();
+  pipeline.start();
+  auto sleepUntilSensorTime = [&](Timestamp t_ns) {
+    const auto target =
+        start + std::chrono::duration_cast<Clock::duration>(
+                    std::chrono::duration<double>(toSeconds(t_ns - t0) / options.rate));
+    std::this_thread::sleep_until(target);
+    return target;
+  };
+  for (;;) {
+    const Timestamp t_img =
+        timeOf(next_image, n_images, [&](std::size_t i) { return data.images[i].t_ns; });
+    const Timestamp t_imu =
+        timeOf(next_imu, data.imu.size(), [&](std::size_t i) { return data.imu[i].t_ns; });
+    const Timestamp t_scan =
+        timeOf(next_scan, data.scans.size(), [&](std::size_t i) { return data.scans[i].t_ns; });
+    if (t_img == kNever && t_imu == kNever && t_scan == kNever) break;
+    if (t_imu <= t_scan && t_imu <= t_img) {  // at equal times: gyro, then scan, then image
+      sleepUntilSensorTime(t_imu);
+      pipeline.addGyro(data.imu[next_imu++]);
+    } else if (t_scan <= t_img) {
+      sleepUntilSensorTime(t_scan);
+      pipeline.addScan(data.scans[next_scan++]);
+    } else {
+      const auto target = sleepUntilSensorTime(t_img);
+      const double lag_ms =
+          std::chrono::duration<double, std::milli>(Clock::now() - target).count();
+      result.replay_lag_ms_max = std::max(result.replay_lag_ms_max, lag_ms);
+      pipeline.addImage(t_img, prefetched);
+      ++next_image;
+      if (progress) progress(static_cast<int>(next_image), static_cast<int>(n_images));
+      prefetched = next_image < n_images ? io::loadImageGrey(data.images[next_image]) : cv::Mat();
+    }
+  }
+  pipeline.stop();
+  result.wall_s = std::chrono::duration<double>(Clock::now() - start).count();
+  result.stats = pipeline.stats();
+  return result;
+}
+
+}  // namespace ovo::app

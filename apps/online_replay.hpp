@@ -1,0 +1,35 @@
+// `ovo run --realtime`: replays a recorded dataset at sensor rate (optionally scaled) into the
+// OnlinePipeline from a replay thread that sleeps until each measurement's time, so the
+// estimator sees what it would see live: frames dropped when it falls behind, real latency.
+#pragma once
+
+#include <functional>
+#include <vector>
+
+#include "apps/offline_runner.hpp"
+#include "apps/online_pipeline.hpp"
+#include "io/dataset.hpp"
+
+namespace ovo::app {
+
+struct RealtimeOptions {
+  double rate = 1.0;  // replay speed: 2 replays twice as fast as recorded
+  OnlineOptions pipeline;
+};
+
+struct RealtimeRunResult {
+  std::vector<estimator::FrameEstimate> frames;  // processed frames in order (tracks cleared)
+  OnlineStats stats;
+  double wall_s = 0.0;             // first measurement handed in -> pipeline stopped
+  double replay_lag_ms_max = 0.0;  // worst lateness of an image hand-over (decoding, scheduling)
+};
+
+/// Replays `data` into an OnlinePipeline driving `est` on the calling thread (the replay thread;
+/// the pipeline adds its processing thread). on_output runs on the processing thread for every
+/// processed frame (e.g. the viewer); progress gets (frames handed in, total).
+RealtimeRunResult runRealtime(const io::Dataset& data, estimator::Estimator& est,
+                              const RealtimeOptions& options,
+                              const OnlinePipeline::OutputCallback& on_output = {},
+                              const ProgressFn& progress = {});
+
+}  // namespace ovo::app

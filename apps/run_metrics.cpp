@@ -1,0 +1,110 @@
+#include "apps/run_metrics.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "common/so3.hpp"
+#include "eval/metrics.hpp"
+
+namespace ovo::app {
+
+double percentile(std::vector<double> values, double pct) {
+  if (values.empty()) return 0.0;
+  std::sort(values.begin(), values.end());
+  const double pos = pct / 100.0 * static_cast<double>(values.size() - 1);
+  const auto lo = static_cast<std::size_t>(std::floor(pos));
+  const auto hi = std::min(lo + 1, values.size() - 1);
+  return values[lo] + (pos - static_cast<double>(lo)) * (values[hi] - values[lo]);
+}
+
+namespace {
+
+// Per consecutive pair: rotation error of the relative motion [deg], and the angle between the
+// estimated and true translation directions [deg] for pairs that truly move >= min_move_m.
+void perFrameErrors(const eval::Associated& a, double min_move_m, std::vector<double>& rot_deg,
+                    std::vector<double>& dir_deg) {
+  for (std::size_t i = 0; i + 1 < a.size(); ++i) {
+    const SE3 dQ = a.ref[i].T_W_B.inverse() * a.ref[i + 1].T_W_B;
+    const SE3 dP = a.est[i].T_W_B.inverse() * a.est[i + 1].T_W_B;
+    rot_deg.push_back(so3::angle(dQ.linear().transpose() * dP.linear()) * 180.0 / M_PI);
+    const Vec3 tq = dQ.translation(), tp = dP.translation();
+    if (tq.norm() >= min_move_m) {
+      if (tp.norm() < 1e-12) {
+        dir_deg.push_back(180.0);  // no motion estimated where there was some: worst case
+      } else {
+        const double c = std::clamp(tq.normalized().dot(tp.normalized()), -1.0, 1.0);
+        dir_deg.push_back(std::acos(c) * 180.0 / M_PI);
+      }
+    }
+  }
+}
+
+}  // namespace
+
+nlohmann::json computeRunMetrics(const Trajectory& estimate, const Trajectory& groundtruth,
+                                 const estimator::EstimatorStats& stats, const RunTiming& timing,
+                                 double min_move_m) {
+  nlohmann::json m;
+  m["frames"] = stats.frames;
+  m["frames_tracked"] = stats.frames_tracked;
+  m["keyframes"] = stats.keyframes;
+  m["lidar_scale_frames"] = stats.lidar_scale_frames;
+  m["ground_scale_frames"] = stats.ground_scale_frames;
+  m["gyro_gaps"] = stats.gyro_gaps;
+  m["tracking_losses"] = stats.tracking_losses;
+  m["notes"] = stats.notes;
+  m["length_m"] = eval::pathLength(estimate);  // replaced by the true length when known
+
+  if (!groundtruth.empty() && !estimate.empty()) {
+    const eval::Associated a = eval::associateByTime(groundtruth, estimate);
+    m["gt_pairs"] = a.size();
+    if (a.size() >= 3) {
+      const double length = eval::pathLength(a.ref);
+      m["length_m"] = length;
+      if (const auto ate = eval::computeAte(a, eval::AlignMode::kSE3)) {
+        m["ate_rmse_m"] = ate->trans_m.rmse;
+        if (length > 0) m["ate_pct"] = 100.0 * ate->trans_m.rmse / length;
+      }
+      if (const auto ate = eval::computeAte(a, eval::AlignMode::kSim3))
+        m["ate_sim3_rmse_m"] = ate->trans_m.rmse;
+      std::vector<double> rot_deg, dir_deg;
+      perFrameErrors(a, min_move_m, rot_deg, dir_deg);
+      if (!rot_deg.empty()) {
+        m["rpe_rot_deg_per_frame_median"] = percentile(rot_deg, 50);
+        m["rpe_rot_deg_per_frame_p90"] = percentile(rot_deg, 90);
+      }
+      if (!dir_deg.empty()) m["rpe_trans_dir_deg_median"] = percentile(dir_deg, 50);
+      if (const auto drift = eval::kittiDrift(a)) m["drift_pct"] = drift->trans_pct;
+      if (const auto origin = eval::alignFirstPose(a.ref, a.est)) {
+        if (const auto yaw = eval::finalYawErrorDeg(a, *origin))
+          m["final_yaw_err_deg"] = std::abs(*yaw);
+        const Vec3 p_final = origin->apply(a.est.back().T_W_B.translation());
+        m["final_pos_err_m"] = (p_final - a.ref.back().T_W_B.translation()).norm();
+        if (length > 0)
+          m["final_pos_err_pct"] =
+              100.0 * (p_final - a.ref.back().T_W_B.translation()).norm() / length;
+      }
+      if (const auto s = eval::scaleErrorPct(a)) m["scale_err_pct"] = *s;
+    }
+  }
+
+  nlohmann::json t;
+  t["frontend_ms_median"] = percentile(timing.frontend_ms, 50);
+  t["frontend_ms_p90"] = percentile(timing.frontend_ms, 90);
+  t["estimator_ms_median"] = percentile(timing.estimator_ms, 50);
+  t["estimator_ms_p90"] = percentile(timing.estimator_ms, 90);
+  t["total_ms_median"] = percentile(timing.total_ms, 50);
+  t["total_ms_p90"] = percentile(timing.total_ms, 90);
+  t["wall_s"] = timing.wall_s;
+  t["realtime_factor"] = timing.wall_s > 0 ? timing.sequence_s / timing.wall_s : 0.0;
+  m["timing"] = t;
+  if (timing.frames_dropped) {
+    m["frames_in"] = timing.frames_in;
+    m["frames_dropped"] = *timing.frames_dropped;
+    m["latency_ms_median"] = percentile(timing.latency_ms, 50);
+    m["latency_ms_p99"] = percentile(timing.latency_ms, 99);
+  }
+  return m;
+}
+
+}  // namespace ovo::app

@@ -1,0 +1,171 @@
+// End to end on a short real KITTI clip: `ovo run --realtime` reports latency and dropped frames,
+// `ovo run` writes report.html, and ovo_live_camera runs a video file with a gyro csv on stdin,
+// ends cleanly at Ctrl-C and fails clearly without a camera.
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+#include <opencv2/videoio.hpp>
+#include <sstream>
+
+#include "camera/calib_io.hpp"
+#include "io/dataset.hpp"
+#include "tests/apps/online_test_data.hpp"
+
+namespace ovo::test {
+namespace {
+
+namespace fs = std::filesystem;
+
+#define OVO_REQUIRE_PROGRAM(path) \
+  if (!fs::exists(path)) GTEST_SKIP() << "not built: " << (path).string()
+
+std::string slurp(const fs::path& p) {
+  std::ifstream in(p);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+TEST(OnlineRun, RealtimeReplayReportsLatencyAndDroppedFrames) {
+  OVO_REQUIRE_DATA("kitti07-first160/image_0/000000.png");
+  OVO_REQUIRE_PROGRAM(ovoBinaryPath());
+  const fs::path dir = tempDir();
+  const fs::path data = makeMiniKitti(dir / "kitti", 20);
+  std::string out;
+  const int code = runShell("'" + ovoBinaryPath().string() + "' run --dataset '" + data.string() +
+                                "' --estimator vo --realtime --rate 2 --quiet --out '" +
+                                (dir / "run").string() + "'",
+                            dir, &out);
+  ASSERT_EQ(code, 0) << out;
+  const auto m = nlohmann::json::parse(slurp(dir / "run" / "metrics.json"));
+  ASSERT_TRUE(m.contains("latency_ms_median")) << m.dump(2);
+  ASSERT_TRUE(m.contains("latency_ms_p99"));
+  ASSERT_TRUE(m.contains("frames_dropped"));
+  EXPECT_EQ(m["frames_in"].get<int>(), 20);
+  EXPECT_EQ(m["frames"].get<int>() + m["frames_dropped"].get<int>(), 20);
+  EXPECT_GT(m["latency_ms_median"].get<double>(), 0.0);
+  EXPECT_GE(m["latency_ms_p99"].get<double>(), m["latency_ms_median"].get<double>());
+  EXPECT_NEAR(m["realtime_rate"].get<double>(), 2.0, 1e-12);
+  const std::string report = slurp(dir / "run" / "report.html");
+  EXPECT_NE(report.find("latency (online)"), std::string::npos);
+}
+
+TEST(OnlineRun, OfflineRunWritesAReportWithTheGroundTruthPlots) {
+  OVO_REQUIRE_DATA("kitti07-first160/image_0/000000.png");
+  OVO_REQUIRE_PROGRAM(ovoBinaryPath());
+  const fs::path dir = tempDir();
+  const fs::path data = makeMiniKitti(dir / "kitti", 8);
+  std::string out;
+  const int code = runShell("'" + ovoBinaryPath().string() + "' run --dataset '" + data.string() +
+                                "' --estimator vo --quiet --out '" + (dir / "run").string() + "'",
+                            dir, &out);
+  ASSERT_EQ(code, 0) << out;
+  const std::string report = slurp(dir / "run" / "report.html");
+  std::size_t svgs = 0;
+  for (auto p = report.find("<svg"); p != std::string::npos; p = report.find("<svg", p + 1)) ++svgs;
+  EXPECT_EQ(svgs, 4u);  // top view, position error, yaw error, timing (vo has no gyro bias)
+  EXPECT_NE(report.find("ground truth"), std::string::npos);
+  EXPECT_EQ(report.find("latency"), std::string::npos);  // offline: no latency
+}
+
+TEST(LiveCamera, FailsWithAClearMessageWhenThereIsNoCamera) {
+  OVO_REQUIRE_DATA("romovi-fisheye-calib/calib_results.txt");
+  OVO_REQUIRE_PROGRAM(liveCameraBinaryPath());
+  const fs::path dir = tempDir();
+  std::string out;
+  const int code = runShell("'" + liveCameraBinaryPath().string() + "' --camera 97 --calib '" +
+                                sharedData("romovi-fisheye-calib/calib_results.txt").string() +
+                                "' --no-gyro < /dev/null",
+                            dir, &out);
+  EXPECT_EQ(code, 2) << out;
+  EXPECT_NE(out.find("cannot open camera 97"), std::string::npos) << out;
+}
+
+// A short MJPG video of the first KITTI frames, its pinhole sensor.yaml and a gyro csv.
+struct LiveInputs {
+  fs::path video, calib, gyro;
+  int frames = 0;
+};
+std::optional<LiveInputs> makeLiveInputs(const fs::path& dir, int frames) {
+  const io::Dataset data = io::loadDataset(makeMiniKitti(dir / "kitti", frames));
+  LiveInputs in;
+  in.frames = frames;
+  in.video = dir / "clip.avi";
+  in.calib = dir / "sensor.yaml";
+  in.gyro = dir / "gyro.csv";
+  const cv::Mat first = io::loadImageGrey(data.images.front());
+  cv::VideoWriter writer(in.video.string(), cv::VideoWriter::fourcc('M', 'J', 'P', 'G'), 10.0,
+                         first.size(), true);
+  if (!writer.isOpened()) return std::nullopt;
+  for (const auto& e : data.images) {
+    cv::Mat bgr;
+    cv::cvtColor(io::loadImageGrey(e), bgr, cv::COLOR_GRAY2BGR);
+    writer.write(bgr);
+  }
+  writer.release();
+  camera::writeSensorYaml(in.calib, *data.camera, data.rig.T_B_C, 10.0);
+  std::ofstream gyro(in.gyro);
+  gyro << "#t_ns,wx,wy,wz\n";
+  for (int i = 0; i <= 200 * frames / 10 + 20; ++i) {
+    gyro << i * 5'000'000LL << ",0.001,-0.002,0.0005\n";
+    if (i == 3) gyro << "not,a,number\n";  // line 6 of the stream: warned about and skipped
+  }
+  return in;
+}
+
+TEST(LiveCamera, RunsAVideoFileWithGyroFromStdinAndPrintsPoses) {
+  OVO_REQUIRE_DATA("kitti07-first160/image_0/000000.png");
+  OVO_REQUIRE_PROGRAM(liveCameraBinaryPath());
+  const fs::path dir = tempDir();
+  const auto in = makeLiveInputs(dir, 12);
+  if (!in) GTEST_SKIP() << "OpenCV cannot write an MJPG .avi here";
+  std::string out;
+  const int code = runShell("'" + liveCameraBinaryPath().string() + "' --camera '" +
+                                in->video.string() + "' --calib '" + in->calib.string() +
+                                "' --estimator vo --rate 2 < '" + in->gyro.string() + "'",
+                            dir, &out);
+  ASSERT_EQ(code, 0) << out;
+  EXPECT_NE(out.find("stdin:6: expected t_ns,wx,wy,wz"), std::string::npos) << out;
+  EXPECT_NE(out.find("12 frames in"), std::string::npos) << out;
+  // Pose lines: 8 numbers, times 0.0, 0.1, ... (frame index / 10 fps).
+  std::istringstream lines(out);
+  std::string line;
+  int poses = 0;
+  double last_t = -1;
+  while (std::getline(lines, line)) {
+    std::istringstream ls(line);
+    double v[8];
+    int n = 0;
+    while (n < 8 && ls >> v[n]) ++n;
+    if (n != 8 || line[0] == '[') continue;
+    EXPECT_GT(v[0], last_t);
+    last_t = v[0];
+    ++poses;
+  }
+  EXPECT_GE(poses, 2);
+  EXPECT_LE(poses, 12);
+  EXPECT_NEAR(last_t, 1.1, 1e-6);  // the newest frame is never the one dropped
+}
+
+TEST(LiveCamera, EndsCleanlyOnCtrlC) {
+  OVO_REQUIRE_DATA("kitti07-first160/image_0/000000.png");
+  OVO_REQUIRE_PROGRAM(liveCameraBinaryPath());
+  const fs::path dir = tempDir();
+  const auto in = makeLiveInputs(dir, 12);
+  if (!in) GTEST_SKIP() << "OpenCV cannot write an MJPG .avi here";
+  std::string out;
+  // At 0.1x the clip would take 12 s; SIGINT after 3 s must end it with the summary, exit 0.
+  const int code =
+      runShell("timeout --preserve-status -s INT 3 '" + liveCameraBinaryPath().string() +
+                   "' --camera '" + in->video.string() + "' --calib '" + in->calib.string() +
+                   "' --estimator vo --rate 0.1 < '" + in->gyro.string() + "'",
+               dir, &out);
+  EXPECT_EQ(code, 0) << out;
+  EXPECT_NE(out.find("frames in"), std::string::npos) << out;
+}
+
+}  // namespace
+}  // namespace ovo::test
