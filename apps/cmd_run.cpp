@@ -27,6 +27,7 @@ struct RunArgs {
   std::string dataset;
   std::string config;
   std::string estimator = "window";
+  std::string refine;  // --refine none|full (window only)
   std::string out;
   std::string gt;
   std::vector<std::string> sets;
@@ -59,6 +60,11 @@ int runRun(const RunArgs& args) {
   Config config;
   if (!args.config.empty()) config = Config::load(args.config);
   config.applyOverrides(args.sets);
+  if (!args.refine.empty()) {
+    if (args.estimator != "window")
+      fail("--refine {}: only the window estimator refines (got --estimator {})", args.refine, args.estimator);
+    config.applyOverride("window.refine=" + args.refine);
+  }
 
   const io::Dataset data = io::loadDataset(args.dataset);
   if (data.images.empty()) fail("{}: the dataset has no images", args.dataset);
@@ -201,6 +207,9 @@ CommandRunner setupRun(CLI::App& sub) {
                  "Ground truth trajectory (TUM, KITTI with or without time, EuRoC csv)");
   sub.add_option("--set", args->sets, "Override a configuration key: key.path=value (repeatable)");
   sub.add_flag("--quiet", args->quiet, "Do not print the metrics");
+  sub.add_option("--refine", args->refine,
+                 "full: re-optimise all keyframes at the end (offline accuracy; window only)")
+      ->check(CLI::IsMember({"none", "full"}));
   sub.add_flag("--realtime", args->realtime,
                "Replay at sensor rate through the threaded online pipeline (drops frames when "
                "behind; metrics gain latency_ms_median/_p99 and frames_dropped)");

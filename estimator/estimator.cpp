@@ -1,0 +1,17 @@
+#include "estimator/estimator.hpp"
+
+#include "common/error.hpp"
+#include "estimator/kf_estimator.hpp"
+#include "estimator/vo_estimator.hpp"
+#include "estimator/window_estimator.hpp"
+
+namespace ovo::estimator {
+
+std::unique_ptr<Estimator> makeEstimator(const std::string& name, const SensorSetup& setup, const Config& config) {
+  if (name == "vo") return makeVoEstimator(setup, config);
+  if (name == "kf") return makeKfEstimator(setup, config);
+  if (name == "window") return makeWindowEstimator(setup, config);
+  fail("unknown estimator '{}': expected window, kf or vo", name);
+}
+
+}  // namespace ovo::estimator

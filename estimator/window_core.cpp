@@ -1,0 +1,884 @@
+#include "estimator/window_core.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <unordered_set>
+
+#include "common/so3.hpp"
+#include "estimator/window_lidar.hpp"
+#include "factors/pose_prior_factor.hpp"
+#include "frontend/triangulation.hpp"
+
+namespace ovo::estimator {
+namespace {
+
+constexpr double kDegToRad = M_PI / 180.0;
+
+double msSince(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+}
+
+double median(std::vector<double> v) {
+  if (v.empty()) return 0.0;
+  auto mid = v.begin() + static_cast<long>(v.size() / 2);
+  std::nth_element(v.begin(), mid, v.end());
+  return *mid;
+}
+
+std::vector<TrackObservation> toVector(const std::unordered_map<TrackId, TrackObservation>& m) {
+  std::vector<TrackObservation> v;
+  v.reserve(m.size());
+  for (const auto& [id, o] : m) v.push_back(o);
+  std::sort(v.begin(), v.end(), [](const TrackObservation& a, const TrackObservation& b) {
+    return a.track_id < b.track_id;
+  });
+  return v;
+}
+
+/// Tracks for a keyframe: every one in `keep`, then up to max_priority of `priority`, then the
+/// oldest tracks with at most per_cell per grid cell, up to max_total in all.
+std::vector<TrackObservation> selectSpread(const std::vector<TrackObservation>& all,
+                                           const std::unordered_set<TrackId>& keep,
+                                           const std::unordered_set<TrackId>& priority,
+                                           const WindowOptions& o) {
+  std::vector<TrackObservation> out;
+  std::vector<const TrackObservation*> prio, rest;
+  for (const auto& ob : all) {
+    if (keep.count(ob.track_id))
+      out.push_back(ob);
+    else if (priority.count(ob.track_id))
+      prio.push_back(&ob);
+    else
+      rest.push_back(&ob);
+  }
+  std::unordered_map<std::int64_t, int> cells;
+  auto cellOf = [&o](const Vec2& px) {
+    return (static_cast<std::int64_t>(std::floor(px.x() / o.feature_cell_px)) << 32) +
+           static_cast<std::int64_t>(std::floor(px.y() / o.feature_cell_px));
+  };
+  for (const auto& ob : out) ++cells[cellOf(ob.px)];
+  int n_prio = 0;
+  for (const TrackObservation* ob : prio) {
+    if (n_prio++ >= o.max_lidar_features || static_cast<int>(out.size()) >= o.max_features) break;
+    out.push_back(*ob);
+  }
+  std::stable_sort(
+      rest.begin(), rest.end(),
+      [](const TrackObservation* a, const TrackObservation* b) { return a->age > b->age; });
+  for (const TrackObservation* ob : rest) {
+    if (static_cast<int>(out.size()) >= o.max_features) break;
+    int& c = cells[cellOf(ob->px)];
+    if (c >= o.features_per_cell) continue;
+    ++c;
+    out.push_back(*ob);
+  }
+  return out;
+}
+
+}  // namespace
+
+WindowCore::WindowCore(const SensorSetup& setup, const WindowOptions& options,
+                       const frontend::RelativePoseOptions& relpose_options,
+                       const GroundPlaneOptions& ground_options)
+    : setup_(setup), options_(options), ground_options_(ground_options) {
+  const double pixel_sigma = options.pixel_sigma > 0.0 ? options.pixel_sigma : setup.pixel_sigma;
+  model_.T_B_C = setup.T_B_C;
+  model_.T_B_L = setup.T_B_L;
+  model_.bearing_sigma_rad = pixel_sigma / camera::focalPx(setup.camera);
+  model_.bearing_huber = options.bearing_huber_sigmas;
+  model_.lidar_sigma_m =
+      options.lidar_range_sigma_m > 0.0 ? options.lidar_range_sigma_m : setup.lidar_range_sigma_m;
+  model_.lidar_huber = options.lidar_huber_sigmas;
+  model_.bias_random_walk = options.gyro_bias_random_walk > 0.0 ? options.gyro_bias_random_walk
+                                                                : setup.gyro_bias_random_walk;
+  model_.bias_prior_sigma_radps = options.gyro_bias_prior_sigma_radps;
+  model_.gauge_sigma_position_m = options.gauge_sigma_position_m;
+  model_.gauge_sigma_rotation_rad = options.gauge_sigma_yaw_rad;
+  model_.min_rho = 1.0 / (2.0 * options.landmark_max_depth_m);
+  model_.max_rho = 1.0 / (0.5 * options.landmark_min_depth_m);
+  use_gyro_ = options.use_gyro && setup.has_gyro;
+  use_lidar_ = options.use_lidar && setup.has_lidar;
+  model_.use_gyro = use_gyro_;
+  if (!use_gyro_) note("no gyro: vision-only rotation (8-point initialisation, no gyro factors)");
+  if (!use_lidar_) {
+    note(setup.camera_height_m ? "no LiDAR: ground-plane scale at initialisation (camera_height_m)"
+                               : "no LiDAR and no camera height: scale is arbitrary");
+  }
+  if (!use_gyro_) relpose_ = std::make_unique<frontend::RelativePoseEstimator>(relpose_options);
+}
+
+WindowCore::~WindowCore() = default;
+
+void WindowCore::note(const std::string& text) {
+  if (std::find(stats_.notes.begin(), stats_.notes.end(), text) == stats_.notes.end())
+    stats_.notes.push_back(text);
+}
+
+void WindowCore::addGyro(const ImuSample& sample) {
+  if (!options_.use_gyro) return;
+  gyro_.add(sample);
+}
+
+void WindowCore::addScan(const LidarScan& scan) {
+  if (!use_lidar_) return;
+  scans_.push_back(scan);
+  // Keep what the window can still use: scans newer than the oldest frame of interest.
+  Timestamp keep_from = last_t_ - fromSeconds(5.0);
+  if (reference_) keep_from = std::min(keep_from, reference_->t_ns);
+  while (scans_.size() > 2 && scans_.front().t_ns < keep_from) scans_.erase(scans_.begin());
+}
+
+const LidarScan* WindowCore::scanAt(Timestamp t_ns) const {
+  const Timestamp tol = fromSeconds(options_.lidar_scan_time_tol_s);
+  const LidarScan* best = nullptr;
+  for (const LidarScan& s : scans_)
+    if (std::llabs(s.t_ns - t_ns) <= tol &&
+        (!best || std::llabs(s.t_ns - t_ns) < std::llabs(best->t_ns - t_ns)))
+      best = &s;
+  return best;
+}
+
+std::optional<factors::GyroPreintegration> WindowCore::preintegrate(Timestamp t0, Timestamp t1,
+                                                                    const Vec3& bias) const {
+  if (!use_gyro_ || gyro_.empty() || t1 <= t0) return std::nullopt;
+  return factors::GyroPreintegration(gyro_.around(t0, t1), t0, t1, bias, options_.gyro);
+}
+
+std::optional<Mat3> WindowCore::predictRotationCurPrev(Timestamp t_ns) const {
+  if (!have_last_) return std::nullopt;
+  auto pi = preintegrate(last_t_, t_ns, bias_);
+  if (!pi || pi->status() == factors::GyroPreintegration::Status::kNoData) return std::nullopt;
+  const Mat3 R_B_C = setup_.T_B_C.linear();
+  return R_B_C.transpose() * pi->deltaR().transpose() * R_B_C;
+}
+
+std::vector<Keyframe*> WindowCore::windowKeyframes() {
+  std::vector<Keyframe*> out;
+  for (auto& kf : map_.keyframes) out.push_back(kf.get());
+  return out;
+}
+
+void WindowCore::startReference(const VisualFrame& frame, const SE3& T_W_B) {
+  Reference r;
+  r.t_ns = frame.t_ns;
+  r.T_W_B = T_W_B;
+  std::unordered_set<TrackId> near_beams;
+  for (const auto& c : lidarCandidates(frame)) near_beams.insert(c.track_id);
+  for (const auto& o : selectSpread(frame.observations, {}, near_beams, options_))
+    r.obs[o.track_id] = o;
+  r.frame_index = static_cast<int>(frames_.size());
+  reference_ = std::move(r);
+}
+
+void WindowCore::recordFrame(const FrameEstimate& e, int ref_kf) {
+  FrameRecord r;
+  r.t_ns = e.t_ns;
+  r.T_W_B = e.T_W_B;
+  r.tracked = e.tracked;
+  r.is_keyframe = e.is_keyframe;
+  if (ref_kf >= 0) {
+    if (auto T_W_K = keyframePose(ref_kf)) {
+      r.ref_kf = ref_kf;
+      r.T_kf_B = T_W_K->inverse() * e.T_W_B;
+    }
+  }
+  frames_.push_back(r);
+}
+
+std::optional<SE3> WindowCore::keyframePose(int kf_id) const {
+  if (const Keyframe* kf = map_.find(kf_id)) return kf->pose();
+  for (const auto& kf : map_.archive)
+    if (kf->id == kf_id) return kf->pose();
+  auto it = kf_poses_.find(kf_id);
+  if (it != kf_poses_.end()) return it->second;
+  return std::nullopt;
+}
+
+FrameEstimate WindowCore::processFrame(const VisualFrame& frame_in) {
+  // A failed frontend frame counts as a frame without any track.
+  VisualFrame blind;
+  if (!frame_in.frontend_ok) blind.t_ns = frame_in.t_ns;
+  const VisualFrame& frame = frame_in.frontend_ok ? frame_in : blind;
+  const auto t_start = std::chrono::steady_clock::now();
+  FrameEstimate e;
+  e.t_ns = frame.t_ns;
+  // The tracks followed between keyframes: the newest keyframe's and the landmarks (or the
+  // initialisation reference's); the frontend's other tracks are only looked at for keyframes.
+  std::unordered_set<TrackId> followed;
+  if (initialized_ && !map_.empty()) {
+    for (const auto& [id, o] : map_.keyframes.back()->observations) followed.insert(id);
+    for (const auto& [id, lm] : map_.landmarks) followed.insert(id);
+  } else if (reference_) {
+    for (const auto& [id, o] : reference_->obs) followed.insert(id);
+  }
+  std::unordered_map<TrackId, TrackObservation> obs;
+  if (frame.frontend_ok)
+    for (const auto& o : frame.observations)
+      if (!have_last_ || followed.count(o.track_id)) obs[o.track_id] = o;
+  ++stats_.frames;
+
+  if (!have_last_) {
+    e.T_W_B = SE3::Identity();  // W = B at the first frame
+    e.tracked = true;
+    e.status = "initializing";
+    startReference(frame, e.T_W_B);
+    have_last_ = true;
+    last_t_ = frame.t_ns;
+    last_T_W_B_ = e.T_W_B;
+    last_obs_ = std::move(obs);
+    recordFrame(e, -1);
+    ++stats_.frames_tracked;
+    bias_history_.emplace_back(e.t_ns, bias_);
+    e.estimator_ms = msSince(t_start);
+    return e;
+  }
+  if (frame.t_ns <= last_t_) {  // out of order: hold
+    e.T_W_B = last_T_W_B_;
+    e.status = "out_of_order";
+    recordFrame(e, -1);
+    return e;
+  }
+
+  // Prediction: gyro rotation, decaying constant velocity.
+  const double dt = toSeconds(frame.t_ns - last_t_);
+  SE3 T_pred = last_T_W_B_;
+  double rot_sigma = options_.rotation_prior_sigma_rad;
+  double rate_radps = 0.0;
+  bool have_rotation_prior = false;
+  if (auto pi = preintegrate(last_t_, frame.t_ns, bias_)) {
+    T_pred.linear() = so3::orthonormalize(last_T_W_B_.linear() * pi->deltaR());
+    rot_sigma = std::sqrt(pi->covariance().trace() / 3.0 + rot_sigma * rot_sigma);
+    rate_radps = so3::angle(pi->deltaR()) / dt;
+    have_rotation_prior = pi->status() != factors::GyroPreintegration::Status::kNoData;
+    if (pi->status() != factors::GyroPreintegration::Status::kOk) {
+      if (!in_gap_) ++stats_.gyro_gaps;
+      in_gap_ = true;
+    } else {
+      in_gap_ = false;
+    }
+  }
+  T_pred.translation() = last_T_W_B_.translation() + velocity_W_ * dt;
+
+  // Flow to the previous frame (standstill detector).
+  std::vector<double> flows;
+  for (const auto& [id, o] : obs) {
+    auto it = last_obs_.find(id);
+    if (it != last_obs_.end()) flows.push_back((o.px - it->second.px).norm());
+  }
+  const double flow = frame.median_flow_px >= 0.0 ? frame.median_flow_px
+                      : flows.size() >= 10        ? median(flows)
+                                                  : 1e9;
+  const bool gyro_quiet = !use_gyro_ || rate_radps < options_.standstill_gyro_radps;
+  const bool standstill =
+      !frame.observations.empty() && flow < options_.standstill_flow_px && gyro_quiet;
+
+  int ref_kf = -1;
+  if (standstill) {
+    e.T_W_B = last_T_W_B_;
+    e.tracked = initialized_ || !reference_;
+    e.status = "standstill";
+    velocity_W_.setZero();
+    if (initialized_ && !map_.empty()) ref_kf = map_.keyframes.back()->id;
+    if (!initialized_) {
+      // Held before initialisation: the pose is known, and the two-view reference moves to
+      // the last still frame so that no translation is lost when the robot starts.
+      e.tracked = true;
+      if (!use_lidar_ || scanAt(frame.t_ns) != nullptr) startReference(frame, e.T_W_B);
+    }
+  } else if (!initialized_) {
+    if (!reference_) startReference(frame, T_pred);
+    velocity_W_ *= std::pow(options_.velocity_decay_per_s, dt);
+    if (tryInitialize(frame, T_pred, &e)) {
+      ref_kf = map_.keyframes.back()->id;
+    } else {
+      e.T_W_B = T_pred;
+      e.tracked = false;
+      e.status = "initializing";
+    }
+  } else {
+    // Motion-only refinement against the window's landmarks.
+    std::vector<Vec3> points_W, bearings_C;
+    std::vector<TrackId> ids;
+    for (const auto& [id, o] : obs) {
+      auto lm = map_.landmarks.find(id);
+      if (lm == map_.landmarks.end()) continue;
+      if (auto p = map_.pointW(lm->second, setup_.T_B_C)) {
+        points_W.push_back(*p);
+        bearings_C.push_back(o.bearing_C);
+        ids.push_back(id);
+      }
+    }
+    std::optional<PoseRefinement> ref;
+    if (static_cast<int>(points_W.size()) >= options_.min_landmark_observations) {
+      ref = refinePose(points_W, bearings_C, T_pred,
+                       have_rotation_prior ? std::optional<Mat3>(T_pred.linear()) : std::nullopt,
+                       rot_sigma, model_, options_.motion_only_iterations,
+                       options_.outlier_angle_deg * kDegToRad);
+    }
+    if (ref && ref->num_inliers >= options_.min_landmark_observations) {
+      lost_frames_ = 0;
+      e.T_W_B = ref->T_W_B;
+      e.tracked = true;
+      const Vec3 v = (ref->T_W_B.translation() - last_T_W_B_.translation()) / dt;
+      velocity_W_ = 0.5 * velocity_W_ + 0.5 * v;
+      std::unordered_set<TrackId> outliers;
+      for (std::size_t i = 0; i < ids.size(); ++i)
+        if (!ref->inlier[i]) {
+          obs.erase(ids[i]);
+          outliers.insert(ids[i]);
+        }
+      const bool has_scan = use_lidar_ && scanAt(frame.t_ns) != nullptr;
+      if (isKeyframe(frame, e.T_W_B, has_scan)) {
+        std::vector<TrackObservation> inlier_obs;
+        inlier_obs.reserve(frame.observations.size());
+        for (const auto& o : frame.observations)
+          if (!outliers.count(o.track_id)) inlier_obs.push_back(o);
+        Keyframe* kf = addKeyframe(frame.t_ns, e.T_W_B, bias_, inlier_obs, &obs);
+        triangulateNewLandmarks(*kf);
+        for (auto& k : map_.keyframes) associateLidar(*k, true);
+        solveWindow();
+        marginalize();
+        e.T_W_B = map_.keyframes.back()->pose();
+        e.is_keyframe = true;
+      }
+      ref_kf = map_.keyframes.back()->id;
+    } else {
+      e.T_W_B = T_pred;
+      e.tracked = false;
+      e.status = points_W.size() < static_cast<std::size_t>(options_.min_landmark_observations)
+                     ? "too_few_landmarks"
+                     : "refinement_failed";
+      velocity_W_ *= std::pow(options_.velocity_decay_per_s, dt);
+      if (lost_frames_++ == 0) ++stats_.tracking_losses;
+      ref_kf = map_.keyframes.back()->id;
+      if (lost_frames_ >= options_.reinit_after_lost_frames) {
+        resetWindow();
+        startReference(frame, T_pred);
+        ref_kf = -1;
+      }
+    }
+  }
+
+  if (!allFinite(e.T_W_B)) {  // never a NaN pose
+    e.T_W_B = last_T_W_B_;
+    e.tracked = false;
+    e.status = "non_finite";
+  }
+  if (!map_.empty()) bias_ = map_.keyframes.back()->bias();
+  e.gyro_bias = bias_;
+  if (initialized_ && last_solve_.lidar_factors > 0) lidar_scale_ = true;
+  e.scale_source_lidar = initialized_ && lidar_scale_ ? 1.0 : 0.0;
+  if (e.tracked) ++stats_.frames_tracked;
+  if (initialized_) {
+    if (lidar_scale_)
+      ++stats_.lidar_scale_frames;
+    else
+      ++stats_.ground_scale_frames;
+  }
+  last_t_ = frame.t_ns;
+  last_T_W_B_ = e.T_W_B;
+  last_obs_ = std::move(obs);
+  recordFrame(e, ref_kf);
+  bias_history_.emplace_back(e.t_ns, bias_);
+  e.estimator_ms = msSince(t_start);
+  return e;
+}
+
+bool WindowCore::isKeyframe(const VisualFrame& frame, const SE3& T_W_B, bool has_scan) const {
+  const Keyframe& last = *map_.keyframes.back();
+  const Mat3 R_Ck_C = setup_.T_B_C.linear().transpose() * last.pose().linear().transpose() *
+                      T_W_B.linear() * setup_.T_B_C.linear();
+  std::vector<double> angles;
+  for (const auto& o : frame.observations) {
+    auto it = last.observations.find(o.track_id);
+    if (it == last.observations.end()) continue;
+    angles.push_back(
+        std::acos(std::clamp((R_Ck_C * o.bearing_C).dot(it->second.bearing_C), -1.0, 1.0)));
+  }
+  const double parallax_deg = median(angles) / kDegToRad;
+  const double alive = last.observations.empty()
+                           ? 0.0
+                           : static_cast<double>(angles.size()) / last.observations.size();
+  const double threshold =
+      options_.kf_parallax_deg * (has_scan ? options_.kf_parallax_scan_fraction : 1.0);
+  return angles.size() < 8 || parallax_deg >= threshold || alive < options_.kf_track_fraction ||
+         toSeconds(frame.t_ns - last.t_ns) >= options_.kf_max_interval_s;
+}
+
+std::vector<LidarAssociation> WindowCore::lidarCandidates(const VisualFrame& frame) const {
+  std::vector<LidarAssociation> out;
+  if (!use_lidar_) return out;
+  const LidarScan* scan = scanAt(frame.t_ns);
+  if (scan == nullptr) return out;
+  const SE3 T_C_L = setup_.T_B_C.inverse() * setup_.T_B_L;
+  const auto beams = projectScan(*scan, setup_.camera, T_C_L);
+  for (const BeamMatch& m : associateBeams(beams, frame.observations, options_.lidar_radius_px))
+    out.push_back({m.track_id, m.range_m});
+  return out;
+}
+
+Keyframe* WindowCore::addKeyframe(Timestamp t_ns, const SE3& T_W_B, const Vec3& bias,
+                                  const std::vector<TrackObservation>& candidates,
+                                  const std::unordered_map<TrackId, TrackObservation>* keep) {
+  VisualFrame frame;
+  frame.t_ns = t_ns;
+  frame.observations = candidates;
+  const auto near_beams = lidarCandidates(frame);
+  std::unordered_set<TrackId> keep_ids, near_ids;
+  if (keep != nullptr)
+    for (const auto& [id, o] : *keep) keep_ids.insert(id);
+  for (const auto& c : near_beams) near_ids.insert(c.track_id);
+  const std::vector<TrackObservation> observations =
+      keep == nullptr && near_ids.empty() ? candidates
+                                          : selectSpread(candidates, keep_ids, near_ids, options_);
+  auto kf = std::make_unique<Keyframe>();
+  kf->id = next_kf_id_++;
+  kf->t_ns = t_ns;
+  kf->setPose(T_W_B);
+  kf->setBias(bias);
+  kf->segment = segment_;
+  for (const auto& o : observations) kf->observations[o.track_id] = o;
+  for (const auto& c : near_beams)
+    if (kf->observations.count(c.track_id)) kf->lidar_candidates.push_back(c);
+  if (!map_.empty() && map_.keyframes.back()->segment == segment_) {
+    const Keyframe& prev = *map_.keyframes.back();
+    if (auto pi = preintegrate(prev.t_ns, t_ns, prev.bias()))
+      kf->preint_from_prev = std::make_shared<factors::GyroPreintegration>(std::move(*pi));
+  }
+  if (use_lidar_)
+    if (const LidarScan* s = scanAt(t_ns)) kf->scan = *s;
+  kf_times_[kf->id] = t_ns;
+  ++stats_.keyframes;
+  map_.keyframes.push_back(std::move(kf));
+  return map_.keyframes.back().get();
+}
+
+void WindowCore::triangulateNewLandmarks(Keyframe& kf) {
+  const SE3 T_W_Cn = kf.pose() * setup_.T_B_C;
+  const SE3 T_Cn_W = T_W_Cn.inverse();
+  const double cos_min = std::cos(options_.landmark_min_parallax_deg * kDegToRad);
+  for (const auto& [id, o] : kf.observations) {
+    if (map_.landmarks.count(id)) continue;
+    const Keyframe* anchor = nullptr;
+    for (const auto& other : map_.keyframes) {
+      if (other.get() == &kf) break;
+      if (other->observations.count(id)) {
+        anchor = other.get();
+        break;
+      }
+    }
+    if (anchor == nullptr) continue;
+    const Vec3& b_a = anchor->observations.at(id).bearing_C;
+    const SE3 T_Cn_Ca = T_Cn_W * anchor->pose() * setup_.T_B_C;
+    if ((T_Cn_Ca.linear() * b_a).dot(o.bearing_C) > cos_min) continue;
+    const auto p =
+        frontend::triangulateMidpoint(T_Cn_Ca.linear(), T_Cn_Ca.translation(), b_a, o.bearing_C);
+    if (!p || p->depth_prev < options_.landmark_min_depth_m ||
+        p->depth_prev > options_.landmark_max_depth_m || p->depth_cur <= 0.0)
+      continue;
+    Landmark lm;
+    lm.id = id;
+    lm.anchor_kf = anchor->id;
+    lm.bearing_anchor_C = b_a;
+    lm.rho[0] = 1.0 / p->depth_prev;
+    map_.landmarks[id] = lm;
+  }
+}
+
+void WindowCore::associateLidar(Keyframe& kf, bool gate_depth) {
+  if (!use_lidar_ || kf.lidar_candidates.empty()) return;
+  const SE3 T_L_W = (kf.pose() * setup_.T_B_L).inverse();
+  std::unordered_set<TrackId> have;
+  for (const auto& a : kf.lidar) have.insert(a.track_id);
+  for (const LidarAssociation& c : kf.lidar_candidates) {
+    if (have.count(c.track_id)) continue;
+    auto lm = map_.landmarks.find(c.track_id);
+    if (lm == map_.landmarks.end()) continue;
+    const auto p_W = map_.pointW(lm->second, setup_.T_B_C);
+    if (!p_W) continue;
+    const double d_lm = (T_L_W * *p_W).norm();
+    if (gate_depth && std::abs(d_lm - c.range_m) > options_.lidar_depth_gate * c.range_m) continue;
+    kf.lidar.push_back(c);
+  }
+}
+
+void WindowCore::solveWindow() {
+  const auto t0 = std::chrono::steady_clock::now();
+  auto kfs = windowKeyframes();
+  auto factors = buildFactors(kfs, map_.landmarks, model_, gauge_);
+  last_solve_ = {};
+  last_solve_.keyframes = static_cast<int>(kfs.size());
+  for (const auto& f : factors) last_solve_.lidar_factors += f.kind == FactorKind::kLidar;
+  std::unordered_set<TrackId> active;
+  for (const auto& f : factors)
+    if (f.kind == FactorKind::kBearing) active.insert(f.track);
+  last_solve_.landmarks = static_cast<int>(active.size());
+  SolveOptions so;
+  so.linear_solver = options_.linear_solver;
+  so.max_iterations = options_.max_iterations;
+  so.max_time_s = options_.max_solver_time_s;
+  const SolveSummary s = solveFactors(std::move(factors), kfs, map_.landmarks, model_, so);
+  last_solve_.residual_blocks = s.residual_blocks;
+  last_solve_.iterations = s.iterations;
+  removeOutliers();
+  // Gyro preintegrations whose bias linearisation is now far from the estimate.
+  for (std::size_t k = 1; k < kfs.size(); ++k) {
+    auto& pi = kfs[k]->preint_from_prev;
+    if (pi && pi->needsRepropagation(kfs[k - 1]->bias(), 0.002))
+      pi->repropagate(kfs[k - 1]->bias());
+  }
+  last_solve_.solve_ms = msSince(t0);
+}
+
+void WindowCore::removeOutliers() {
+  auto kfs = windowKeyframes();
+  const double max_angle = options_.outlier_angle_deg * kDegToRad;
+  for (const ObservationError& err : observationErrors(kfs, map_.landmarks, model_)) {
+    if (err.angle_rad <= max_angle) continue;
+    if (Keyframe* kf = map_.find(err.kf_id)) kf->observations.erase(err.track);
+  }
+  for (auto it = map_.landmarks.begin(); it != map_.landmarks.end();) {
+    const Landmark& lm = it->second;
+    const Keyframe* anchor = map_.find(lm.anchor_kf);
+    const bool bad = anchor == nullptr || !anchor->observations.count(it->first) ||
+                     lm.rho[0] <= model_.min_rho * 1.0001 || lm.rho[0] >= model_.max_rho * 0.9999;
+    it = bad ? map_.landmarks.erase(it) : std::next(it);
+  }
+  // LiDAR associations that disagree with the solved landmark by more than the gate.
+  const SE3 T_B_L = setup_.T_B_L;
+  for (Keyframe* kf : kfs) {
+    const SE3 T_L_W = (kf->pose() * T_B_L).inverse();
+    std::erase_if(kf->lidar, [&](const LidarAssociation& a) {
+      auto lm = map_.landmarks.find(a.track_id);
+      if (lm == map_.landmarks.end()) return true;
+      const auto p_W = map_.pointW(lm->second, setup_.T_B_C);
+      return !p_W || std::abs((T_L_W * *p_W).norm() - a.range_m) >
+                         std::max(0.1, options_.lidar_depth_gate * a.range_m);
+    });
+  }
+}
+
+void WindowCore::marginalize() {
+  while (static_cast<int>(map_.keyframes.size()) > options_.window_size) {
+    const auto t0 = std::chrono::steady_clock::now();
+    Keyframe* oldest = map_.keyframes.front().get();
+    std::unordered_set<TrackId> reanchor;
+    std::unordered_map<TrackId, Vec3> reanchor_points;
+    for (const auto& [id, lm] : map_.landmarks) {
+      if (lm.anchor_kf != oldest->id) continue;
+      if (map_.observationCount(id) - 1 >= 2) {
+        if (auto p = map_.pointW(lm, setup_.T_B_C)) {
+          reanchor.insert(id);
+          reanchor_points[id] = *p;
+        }
+      }
+    }
+    // Landmarks that end here, strongest first (LiDAR-linked, then most observed), up to the
+    // bound: the prior's Schur step is dense in the dropped states.
+    std::vector<std::pair<int, TrackId>> ending;
+    std::unordered_set<TrackId> lidar_tracks;
+    for (const auto& kf : map_.keyframes)
+      for (const auto& a : kf->lidar) lidar_tracks.insert(a.track_id);
+    for (const auto& [id, lm] : map_.landmarks)
+      if (lm.anchor_kf == oldest->id && !reanchor.count(id))
+        ending.emplace_back(-(map_.observationCount(id) + (lidar_tracks.count(id) ? 100 : 0)), id);
+    std::sort(ending.begin(), ending.end());
+    std::unordered_set<TrackId> marginalized;
+    for (std::size_t k = 0;
+         k < ending.size() && static_cast<int>(k) < options_.marginalize_max_landmarks; ++k)
+      if (ending[k].first <= -2) marginalized.insert(ending[k].second);
+    auto info = marginalizeOldest(map_, model_, gauge_, marginalized);
+    map_.rememberPoints(setup_.T_B_C);
+    kf_poses_[oldest->id] = oldest->pose();
+    const int oldest_id = oldest->id;
+    if (options_.refine == "full") map_.archive.push_back(std::move(map_.keyframes.front()));
+    map_.keyframes.pop_front();
+
+    for (auto it = map_.landmarks.begin(); it != map_.landmarks.end();) {
+      Landmark& lm = it->second;
+      if (lm.anchor_kf != oldest_id) {
+        ++it;
+        continue;
+      }
+      bool keep = false;
+      if (reanchor.count(it->first)) {
+        for (const auto& kf : map_.keyframes) {
+          auto o = kf->observations.find(it->first);
+          if (o == kf->observations.end()) continue;
+          const Vec3 p_C = (kf->pose() * setup_.T_B_C).inverse() * reanchor_points[it->first];
+          const double depth = o->second.bearing_C.dot(p_C);
+          if (depth > options_.landmark_min_depth_m) {
+            lm.anchor_kf = kf->id;
+            lm.bearing_anchor_C = o->second.bearing_C;
+            lm.rho[0] = 1.0 / depth;
+            keep = true;
+          }
+          break;
+        }
+      }
+      it = keep ? std::next(it) : map_.landmarks.erase(it);
+    }
+    if (info) {
+      gauge_.marginalization = info;
+      gauge_.kf_id = -1;
+    } else {  // fall back to a pose prior on the new oldest keyframe
+      gauge_.marginalization.reset();
+      gauge_.kf_id = map_.keyframes.front()->id;
+      gauge_.T_W_B = map_.keyframes.front()->pose();
+      gauge_.b_g = map_.keyframes.front()->bias();
+      note("marginalisation failed once: gauge fixed by a pose prior instead");
+    }
+    last_solve_.marginalize_ms += msSince(t0);
+  }
+}
+
+void WindowCore::resetWindow() {
+  map_.rememberPoints(setup_.T_B_C);
+  for (auto& kf : map_.keyframes) {
+    kf_poses_[kf->id] = kf->pose();
+    if (options_.refine == "full") map_.archive.push_back(std::move(kf));
+  }
+  map_.keyframes.clear();
+  map_.landmarks.clear();
+  gauge_ = {};
+  initialized_ = false;
+  lidar_scale_ = false;
+  ++segment_;
+  reference_.reset();
+}
+
+bool WindowCore::tryInitialize(const VisualFrame& frame, const SE3& T_W_B_pred,
+                               FrameEstimate* out) {
+  Reference& ref = *reference_;
+  std::vector<Vec3> b0, b1;
+  std::vector<TrackId> ids;
+  for (const auto& o : frame.observations) {
+    auto it = ref.obs.find(o.track_id);
+    if (it == ref.obs.end()) continue;
+    b0.push_back(it->second.bearing_C);
+    b1.push_back(o.bearing_C);
+    ids.push_back(o.track_id);
+  }
+  // Waiting long without enough parallax (slow or far scene): accept half the parallax.
+  const bool waited = toSeconds(frame.t_ns - ref.t_ns) > options_.init_max_wait_s;
+  const double min_parallax_deg = options_.init_parallax_deg * (waited ? 0.5 : 1.0);
+  if (static_cast<int>(ids.size()) < options_.init_min_tracks) {
+    if (static_cast<int>(frame.observations.size()) >= options_.init_min_tracks)
+      startReference(frame, T_W_B_pred);
+    return false;
+  }
+  const Mat3 R_B_C = setup_.T_B_C.linear();
+  Mat3 R_C1_C0 = Mat3::Identity();
+  std::optional<TwoViewResult> tv;
+  TwoViewOptions tvo;
+  tvo.min_parallax_deg = options_.landmark_min_parallax_deg;
+  tvo.min_points = std::max(10, options_.init_min_tracks / 2);
+  tvo.inlier_rad = std::max(3.0 * model_.bearing_sigma_rad, 1e-3);
+  if (use_gyro_) {
+    R_C1_C0 = R_B_C.transpose() * T_W_B_pred.linear().transpose() * ref.T_W_B.linear() * R_B_C;
+    if (medianParallaxDeg(b0, b1, R_C1_C0) < min_parallax_deg) return false;
+    tv = twoViewKnownRotation(b0, b1, R_C1_C0, tvo);
+  } else {
+    const auto rp = relpose_->estimate(b0, b1);
+    if (rp.status != frontend::RelativePoseResult::Status::kOk) return false;
+    R_C1_C0 = rp.R_cur_prev;
+    if (medianParallaxDeg(b0, b1, R_C1_C0) < min_parallax_deg) return false;
+    auto t = triangulateTwoView(b0, b1, R_C1_C0, rp.t_cur_prev, &rp.inliers, tvo.min_parallax_deg);
+    if (static_cast<int>(t.p_C0.size()) >= tvo.min_points) tv = std::move(t);
+  }
+  if (!tv) return false;
+
+  // Metric scale: LiDAR ranges against the unit-baseline points, else the ground plane.
+  std::optional<double> scale;
+  lidar_scale_ = false;
+  if (use_lidar_) {
+    const SE3 T_C_L = setup_.T_B_C.inverse() * setup_.T_B_L;
+    std::unordered_map<TrackId, int> point_of;
+    for (std::size_t k = 0; k < tv->points_index.size(); ++k)
+      point_of[ids[tv->points_index[k]]] = static_cast<int>(k);
+    std::vector<double> ratios;
+    for (int view = 0; view < 2; ++view) {
+      const LidarScan* scan = scanAt(view == 0 ? ref.t_ns : frame.t_ns);
+      if (!scan) continue;
+      const auto beams = projectScan(*scan, setup_.camera, T_C_L);
+      const auto& observations = view == 0 ? toVector(ref.obs) : frame.observations;
+      for (const BeamMatch& m : associateBeams(beams, observations, options_.lidar_radius_px)) {
+        auto it = point_of.find(m.track_id);
+        if (it == point_of.end()) continue;
+        const Vec3& p0 = tv->p_C0[it->second];
+        const double unit = view == 0 ? p0.norm() : (tv->R_C1_C0 * p0 + tv->t_C1_C0).norm();
+        if (unit > 1e-6) ratios.push_back(m.beam_dist_C / unit);
+      }
+    }
+    // The largest group of ratios that agree within 10 % (a beam end next to a feature that
+    // lies behind a canopy gap gives a wrong ratio): its median, if the group is big enough.
+    std::sort(ratios.begin(), ratios.end());
+    std::size_t best_lo = 0, best_n = 0;
+    for (std::size_t i = 0, j = 0; i < ratios.size(); ++i) {
+      while (j < ratios.size() && ratios[j] <= ratios[i] * 1.2) ++j;
+      if (j - i > best_n) {
+        best_n = j - i;
+        best_lo = i;
+      }
+    }
+    if (static_cast<int>(best_n) >= options_.lidar_min_associations / 2 &&
+        static_cast<int>(ratios.size()) >= options_.lidar_min_associations &&
+        best_n >= ratios.size() / 3) {
+      scale = ratios[best_lo + best_n / 2];
+      lidar_scale_ = true;
+    } else {
+      note("LiDAR associated too few points at an initialisation: ground-plane scale there");
+    }
+  }
+  if (!scale && setup_.camera_height_m) {
+    const Vec3 up_C0 = R_B_C.transpose() * Vec3::UnitZ();
+    if (auto plane = fitGroundPlane(tv->p_C0, up_C0, ground_options_))
+      if (plane->height > 1e-9) scale = *setup_.camera_height_m / plane->height;
+  }
+  if (!scale) {
+    scale = 1.0;
+    note("initialisation without LiDAR or ground-plane scale: unit baseline");
+  }
+
+  SE3 T_C1_C0 = SE3::Identity();
+  T_C1_C0.linear() = tv->R_C1_C0;
+  T_C1_C0.translation() = *scale * tv->t_C1_C0;
+  const SE3 T_W_B1 = ref.T_W_B * setup_.T_B_C * T_C1_C0.inverse() * setup_.T_B_C.inverse();
+
+  std::unordered_map<TrackId, TrackObservation> keep1;
+  for (const auto& o : frame.observations)
+    if (ref.obs.count(o.track_id)) keep1[o.track_id] = o;
+  Keyframe* kf0 = addKeyframe(ref.t_ns, ref.T_W_B, bias_, toVector(ref.obs), nullptr);
+  Keyframe* kf1 = addKeyframe(frame.t_ns, T_W_B1, bias_, frame.observations, &keep1);
+  for (std::size_t k = 0; k < tv->points_index.size(); ++k) {
+    const double depth = *scale * tv->depth0[k];
+    if (depth < options_.landmark_min_depth_m || depth > options_.landmark_max_depth_m) continue;
+    Landmark lm;
+    lm.id = ids[tv->points_index[k]];
+    lm.anchor_kf = kf0->id;
+    lm.bearing_anchor_C = b0[tv->points_index[k]];
+    lm.rho[0] = 1.0 / depth;
+    map_.landmarks[lm.id] = lm;
+  }
+  gauge_ = {};
+  gauge_.kf_id = kf0->id;
+  gauge_.T_W_B = ref.T_W_B;
+  gauge_.b_g = bias_;
+  associateLidar(*kf0, true);
+  associateLidar(*kf1, true);
+  initialized_ = true;
+  solveWindow();
+
+  // Frames between the reference and now: positions interpolated in time, against kf0.
+  const SE3 T_W_K0 = kf0->pose();
+  const SE3 T_W_K1 = kf1->pose();
+  for (std::size_t i = static_cast<std::size_t>(ref.frame_index); i < frames_.size(); ++i) {
+    FrameRecord& r = frames_[i];
+    const double a =
+        std::clamp(toSeconds(r.t_ns - ref.t_ns) / toSeconds(frame.t_ns - ref.t_ns), 0.0, 1.0);
+    r.T_W_B.translation() = (1.0 - a) * T_W_K0.translation() + a * T_W_K1.translation();
+    if (i == static_cast<std::size_t>(ref.frame_index)) r.T_W_B = T_W_K0;
+    r.ref_kf = kf0->id;
+    r.T_kf_B = T_W_K0.inverse() * r.T_W_B;
+    r.is_keyframe = i == static_cast<std::size_t>(ref.frame_index);
+  }
+  reference_.reset();
+  lost_frames_ = 0;
+  velocity_W_ = (T_W_K1.translation() - T_W_K0.translation()) / toSeconds(frame.t_ns - kf0->t_ns);
+  out->T_W_B = T_W_K1;
+  out->tracked = true;
+  out->is_keyframe = true;
+  out->status = "initialized";
+  return true;
+}
+
+void WindowCore::refineAll() {
+  std::vector<Keyframe*> kfs;
+  for (auto& kf : map_.archive) kfs.push_back(kf.get());
+  for (auto& kf : map_.keyframes) kfs.push_back(kf.get());
+  std::sort(kfs.begin(), kfs.end(),
+            [](const Keyframe* a, const Keyframe* b) { return a->id < b->id; });
+  if (kfs.size() < 2) return;
+  map_.rememberPoints(setup_.T_B_C);
+
+  // Every track seen by two keyframes of one segment with a known point: anchored at its first.
+  std::unordered_map<TrackId, Landmark> landmarks;
+  std::unordered_map<TrackId, int> first_seen;
+  for (const Keyframe* kf : kfs) {
+    for (const auto& [id, o] : kf->observations) {
+      if (landmarks.count(id)) continue;
+      auto p = map_.last_point_W.find(id);
+      if (p == map_.last_point_W.end()) continue;
+      const Vec3 p_C = (kf->pose() * setup_.T_B_C).inverse() * p->second;
+      const double depth = o.bearing_C.dot(p_C);
+      if (!(depth > options_.landmark_min_depth_m)) continue;
+      Landmark lm;
+      lm.id = id;
+      lm.anchor_kf = kf->id;
+      lm.bearing_anchor_C = o.bearing_C;
+      lm.rho[0] = 1.0 / depth;
+      landmarks[id] = lm;
+    }
+  }
+  WindowGauge gauge;
+  gauge.kf_id = kfs.front()->id;
+  gauge.T_W_B = kfs.front()->pose();
+  gauge.b_g = kfs.front()->bias();
+  auto factors = buildFactors(kfs, landmarks, model_, gauge);
+  // Each later segment keeps its online placement (nothing links segments but the gyro).
+  for (std::size_t k = 1; k < kfs.size(); ++k) {
+    if (kfs[k]->segment == kfs[k - 1]->segment) continue;
+    FactorSpec p;
+    p.kind = FactorKind::kPosePrior;
+    p.cost = std::make_unique<factors::PosePriorFactor>(
+        kfs[k]->pose(), factors::PosePriorFactor::gaugeInformation(1e-3, 1e-3, 1e-3));
+    p.blocks = {kfs[k]->q_W_B, kfs[k]->p_W_B};
+    factors.push_back(std::move(p));
+  }
+  SolveOptions so;
+  so.linear_solver = "sparse_schur";
+  so.max_iterations = options_.refine_iterations;
+  so.max_time_s = 0.0;
+  solveFactors(std::move(factors), kfs, landmarks, model_, so);
+  for (const Keyframe* kf : kfs) kf_poses_[kf->id] = kf->pose();
+}
+
+void WindowCore::finish() {
+  if (finished_) return;
+  finished_ = true;
+  if (options_.refine == "full") refineAll();
+  for (const auto& kf : map_.keyframes) kf_poses_[kf->id] = kf->pose();
+}
+
+Trajectory WindowCore::trajectory() const {
+  Trajectory out;
+  out.reserve(frames_.size());
+  for (const FrameRecord& r : frames_) {
+    SE3 T = r.T_W_B;
+    if (r.ref_kf >= 0)
+      if (auto T_W_K = keyframePose(r.ref_kf)) T = *T_W_K * r.T_kf_B;
+    if (!allFinite(T)) T = r.T_W_B;
+    out.push_back({r.t_ns, T});
+  }
+  return out;
+}
+
+Trajectory WindowCore::keyframes() const {
+  std::map<int, SE3> poses = kf_poses_;
+  for (const auto& kf : map_.keyframes) poses[kf->id] = kf->pose();
+  for (const auto& kf : map_.archive) poses[kf->id] = kf->pose();
+  Trajectory out;
+  for (const auto& [id, T] : poses) {
+    auto t = kf_times_.find(id);
+    if (t != kf_times_.end()) out.push_back({t->second, T});
+  }
+  return out;
+}
+
+EstimatorStats WindowCore::stats() const {
+  EstimatorStats s = stats_;
+  return s;
+}
+
+}  // namespace ovo::estimator

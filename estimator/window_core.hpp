@@ -1,0 +1,144 @@
+// The sliding-window estimator's per-frame logic without images (DESIGN section 7): fed with
+// tracked bearings per frame (from the Frontend, or synthetic in tests), gyro samples and scans;
+// keeps the window of keyframes, initialises, detects standstill, recovers from tracking loss,
+// solves and marginalises, and refines everything at the end when asked.
+#pragma once
+
+#include <map>
+#include <memory>
+#include <optional>
+#include <string>
+#include <unordered_map>
+#include <vector>
+
+#include "estimator/estimator.hpp"
+#include "estimator/ground_plane.hpp"
+#include "estimator/gyro_buffer.hpp"
+#include "estimator/window_init.hpp"
+#include "estimator/window_map.hpp"
+#include "estimator/window_options.hpp"
+#include "estimator/window_problem.hpp"
+
+namespace ovo::estimator {
+
+/// Timings and sizes of the last window solve (for benchmarks and diagnostics).
+struct WindowSolveInfo {
+  int keyframes = 0;
+  int landmarks = 0;
+  int residual_blocks = 0;
+  int lidar_factors = 0;
+  int iterations = 0;
+  double solve_ms = 0.0;
+  double marginalize_ms = 0.0;
+};
+
+class WindowCore {
+ public:
+  WindowCore(const SensorSetup& setup, const WindowOptions& options,
+             const frontend::RelativePoseOptions& relpose_options = {},
+             const GroundPlaneOptions& ground_options = {});
+  ~WindowCore();
+
+  void addGyro(const ImuSample& sample);
+  void addScan(const LidarScan& scan);
+  /// One camera frame's tracks -> the body pose at its time (always finite).
+  FrameEstimate processFrame(const VisualFrame& frame);
+  /// Gyro-predicted rotation of the camera from the last processed frame to t (bias-corrected),
+  /// R_Ccur_Cprev, for the frontend's matching prior; nullopt without gyro or before any frame.
+  std::optional<Mat3> predictRotationCurPrev(Timestamp t_ns) const;
+
+  /// End of the sequence: final poses, optional full refinement.
+  void finish();
+  Trajectory trajectory() const;
+  Trajectory keyframes() const;
+  EstimatorStats stats() const;
+  std::vector<std::pair<Timestamp, Vec3>> biasHistory() const { return bias_history_; }
+
+  bool initialized() const { return initialized_; }
+  const WindowMap& map() const { return map_; }
+  const WindowSolveInfo& lastSolve() const { return last_solve_; }
+  const WindowOptions& options() const { return options_; }
+  /// Pose of a keyframe now (window or archive), nullopt when unknown.
+  std::optional<SE3> keyframePose(int kf_id) const;
+
+ private:
+  struct FrameRecord {
+    Timestamp t_ns = 0;
+    SE3 T_W_B = SE3::Identity();   // as returned online
+    int ref_kf = -1;               // keyframe the pose is expressed against (-1: none)
+    SE3 T_kf_B = SE3::Identity();  // pose relative to that keyframe
+    bool tracked = false;
+    bool is_keyframe = false;
+  };
+
+  bool gyroOn() const { return use_gyro_ && !gyro_.empty(); }
+  std::optional<factors::GyroPreintegration> preintegrate(Timestamp t0, Timestamp t1,
+                                                          const Vec3& bias) const;
+  const LidarScan* scanAt(Timestamp t_ns) const;
+  bool tryInitialize(const VisualFrame& frame, const SE3& T_W_B_pred, FrameEstimate* out);
+  void startReference(const VisualFrame& frame, const SE3& T_W_B);
+  /// A new keyframe observing `keep` and a spread selection of `candidates` (tracks next to
+  /// LiDAR beams first); keep == nullptr and no scan: all candidates.
+  Keyframe* addKeyframe(Timestamp t_ns, const SE3& T_W_B, const Vec3& bias,
+                        const std::vector<TrackObservation>& candidates,
+                        const std::unordered_map<TrackId, TrackObservation>* keep);
+  std::vector<LidarAssociation> lidarCandidates(const VisualFrame& frame) const;
+  void triangulateNewLandmarks(Keyframe& kf);
+  void associateLidar(Keyframe& kf, bool gate_depth);
+  void solveWindow();
+  void removeOutliers();
+  void marginalize();
+  void resetWindow();
+  bool isKeyframe(const VisualFrame& frame, const SE3& T_W_B, bool has_scan) const;
+  void note(const std::string& text);
+  void recordFrame(const FrameEstimate& e, int ref_kf);
+  void refineAll();
+  std::vector<Keyframe*> windowKeyframes();
+
+  SensorSetup setup_;
+  WindowOptions options_;
+  WindowModel model_;
+  GroundPlaneOptions ground_options_;
+  std::unique_ptr<frontend::RelativePoseEstimator> relpose_;
+  bool use_gyro_ = true;
+  bool use_lidar_ = true;
+
+  GyroBuffer gyro_;
+  std::vector<LidarScan> scans_;  // recent scans (and all of them before initialisation)
+
+  WindowMap map_;
+  WindowGauge gauge_;
+  bool initialized_ = false;
+  int next_kf_id_ = 0;
+  int segment_ = 0;
+  bool lidar_scale_ = false;  // the current segment's scale came from the LiDAR
+
+  // Last frame.
+  bool have_last_ = false;
+  Timestamp last_t_ = 0;
+  SE3 last_T_W_B_ = SE3::Identity();
+  Vec3 velocity_W_ = Vec3::Zero();  // m/s
+  Vec3 bias_ = Vec3::Zero();
+  std::unordered_map<TrackId, TrackObservation> last_obs_;
+  int lost_frames_ = 0;
+
+  // Initialisation reference.
+  struct Reference {
+    Timestamp t_ns = 0;
+    SE3 T_W_B = SE3::Identity();
+    std::unordered_map<TrackId, TrackObservation> obs;
+    int frame_index = 0;
+  };
+  std::optional<Reference> reference_;
+
+  std::vector<FrameRecord> frames_;
+  std::map<int, SE3> kf_poses_;  // keyframe id -> pose when it left the window (or final)
+  std::map<int, Timestamp> kf_times_;
+  std::vector<std::pair<Timestamp, Vec3>> bias_history_;
+  EstimatorStats stats_;
+  WindowSolveInfo last_solve_;
+  bool in_gap_ = false;
+  bool finished_ = false;
+};
+
+}  // namespace ovo::estimator

@@ -1,0 +1,94 @@
+// The sliding window's contents: keyframes (pose, gyro bias, observed tracks, LiDAR beams), the
+// inverse-depth landmarks anchored in them, and the per-frame tracks that feed them. Parameter
+// blocks are plain arrays at stable addresses (keyframes by unique_ptr, landmarks in a node map)
+// so that Ceres problems and the marginalisation prior can refer to them across solves.
+#pragma once
+
+#include <cstdint>
+#include <deque>
+#include <memory>
+#include <optional>
+#include <unordered_map>
+#include <vector>
+
+#include "common/types.hpp"
+#include "factors/gyro_preintegration.hpp"
+
+namespace ovo::estimator {
+
+using TrackId = std::int64_t;
+
+/// One tracked feature in one frame: stable track id, full-resolution pixel and unit bearing in C.
+struct TrackObservation {
+  TrackId track_id = 0;
+  Vec2 px = Vec2::Zero();
+  Vec3 bearing_C = Vec3::UnitZ();
+  int age = 1;  // frames the track has lived (selection prefers old tracks)
+};
+
+/// What the frontend hands the window core for one camera frame.
+struct VisualFrame {
+  Timestamp t_ns = 0;
+  std::vector<TrackObservation> observations;
+  bool frontend_ok = true;       // false: the frontend failed on this frame (no usable tracks)
+  double median_flow_px = -1.0;  // to the previous frame (< 0: unknown, computed from tracks)
+};
+
+/// A LiDAR beam associated with a landmark at a keyframe.
+struct LidarAssociation {
+  TrackId track_id = 0;
+  double range_m = 0.0;
+};
+
+/// A keyframe: its states (Ceres blocks) and what it observed.
+struct Keyframe {
+  int id = 0;  // increasing over the run
+  Timestamp t_ns = 0;
+  double q_W_B[4] = {0, 0, 0, 1};  // x, y, z, w
+  double p_W_B[3] = {0, 0, 0};
+  double b_g[3] = {0, 0, 0};
+  std::unordered_map<TrackId, TrackObservation> observations;
+  /// Gyro preintegration from the previous keyframe of the same segment (null: none / no gyro).
+  std::shared_ptr<factors::GyroPreintegration> preint_from_prev;
+  std::vector<LidarAssociation> lidar;             // beams associated with landmarks
+  std::vector<LidarAssociation> lidar_candidates;  // beams near tracks (landmarks or not yet)
+  std::optional<LidarScan> scan;
+  int segment = 0;  // increases at every re-initialisation after a tracking loss
+
+  SE3 pose() const;
+  void setPose(const SE3& T_W_B);
+  Vec3 bias() const { return Vec3(b_g[0], b_g[1], b_g[2]); }
+  void setBias(const Vec3& b);
+};
+
+/// A landmark: inverse depth rho along the unit bearing of its anchor keyframe's observation.
+struct Landmark {
+  TrackId id = 0;
+  int anchor_kf = -1;  // Keyframe::id
+  Vec3 bearing_anchor_C = Vec3::UnitZ();
+  double rho[1] = {0.1};  // 1/m
+};
+
+/// The window: keyframes oldest first, landmarks by track id, and (for the offline full
+/// refinement) every keyframe that left the window.
+class WindowMap {
+ public:
+  std::deque<std::unique_ptr<Keyframe>> keyframes;
+  std::unordered_map<TrackId, Landmark> landmarks;
+  std::vector<std::unique_ptr<Keyframe>> archive;  // marginalised keyframes (refine full only)
+  std::unordered_map<TrackId, Vec3> last_point_W;  // last estimate of every landmark (refine)
+
+  Keyframe* find(int kf_id);
+  const Keyframe* find(int kf_id) const;
+  Keyframe& newest() { return *keyframes.back(); }
+  bool empty() const { return keyframes.empty(); }
+
+  /// World point of a landmark, or nullopt when its anchor is gone or rho is not positive.
+  std::optional<Vec3> pointW(const Landmark& lm, const SE3& T_B_C) const;
+  /// Number of keyframes in the window that observe the track.
+  int observationCount(TrackId id) const;
+  /// Remembers the current world points of all landmarks (for the refinement's initial values).
+  void rememberPoints(const SE3& T_B_C);
+};
+
+}  // namespace ovo::estimator

@@ -1,0 +1,85 @@
+#include "estimator/window_options.hpp"
+
+namespace ovo::estimator {
+
+WindowOptions readWindowOptions(const Config& c) {
+  WindowOptions o;
+  const std::string p = "window.";
+  o.use_gyro = c.get<bool>(p + "use_gyro", o.use_gyro);
+  o.use_lidar = c.get<bool>(p + "use_lidar", o.use_lidar);
+
+  o.window_size = c.getIntInRange(p + "window_size", o.window_size, 2, 100);
+  o.kf_parallax_deg = c.getInRange(p + "kf_parallax_deg", o.kf_parallax_deg, 0.01, 45.0);
+  o.kf_parallax_scan_fraction =
+      c.getInRange(p + "kf_parallax_scan_fraction", o.kf_parallax_scan_fraction, 0.0, 1.0);
+  o.kf_track_fraction = c.getInRange(p + "kf_track_fraction", o.kf_track_fraction, 0.0, 1.0);
+  o.kf_max_interval_s = c.getInRange(p + "kf_max_interval_s", o.kf_max_interval_s, 0.01, 1e3);
+  o.min_landmark_observations =
+      c.getIntInRange(p + "min_landmark_observations", o.min_landmark_observations, 3, 10000);
+
+  o.max_features = c.getIntInRange(p + "max_features", o.max_features, 10, 100000);
+  o.max_lidar_features = c.getIntInRange(p + "max_lidar_features", o.max_lidar_features, 0, 100000);
+  o.feature_cell_px = c.getInRange(p + "feature_cell_px", o.feature_cell_px, 1.0, 1000.0);
+  o.features_per_cell = c.getIntInRange(p + "features_per_cell", o.features_per_cell, 1, 1000);
+
+  o.landmark_min_parallax_deg =
+      c.getInRange(p + "landmark_min_parallax_deg", o.landmark_min_parallax_deg, 0.0, 45.0);
+  o.landmark_min_depth_m =
+      c.getInRange(p + "landmark_min_depth_m", o.landmark_min_depth_m, 1e-3, 1e3);
+  o.landmark_max_depth_m =
+      c.getInRange(p + "landmark_max_depth_m", o.landmark_max_depth_m, 0.1, 1e6);
+  o.outlier_angle_deg = c.getInRange(p + "outlier_angle_deg", o.outlier_angle_deg, 1e-3, 45.0);
+
+  o.pixel_sigma = c.getInRange(p + "pixel_sigma", o.pixel_sigma, -1.0, 100.0);
+  o.bearing_huber_sigmas =
+      c.getInRange(p + "bearing_huber_sigmas", o.bearing_huber_sigmas, 0.1, 100.0);
+  o.lidar_range_sigma_m =
+      c.getInRange(p + "lidar_range_sigma_m", o.lidar_range_sigma_m, -1.0, 10.0);
+  o.lidar_huber_sigmas = c.getInRange(p + "lidar_huber_sigmas", o.lidar_huber_sigmas, 0.1, 100.0);
+  o.gyro_bias_random_walk =
+      c.getInRange(p + "gyro_bias_random_walk", o.gyro_bias_random_walk, -1.0, 1.0);
+  o.gyro_bias_prior_sigma_radps =
+      c.getInRange(p + "gyro_bias_prior_sigma_radps", o.gyro_bias_prior_sigma_radps, 1e-9, 10.0);
+  o.gauge_sigma_position_m =
+      c.getInRange(p + "gauge_sigma_position_m", o.gauge_sigma_position_m, 1e-9, 1e3);
+  o.gauge_sigma_yaw_rad =
+      c.getInRange(p + "gauge_sigma_yaw_rad", o.gauge_sigma_yaw_rad, 1e-9, 10.0);
+  o.rotation_prior_sigma_rad =
+      c.getInRange(p + "rotation_prior_sigma_rad", o.rotation_prior_sigma_rad, 1e-9, 10.0);
+
+  o.lidar_radius_px = c.getInRange(p + "lidar_radius_px", o.lidar_radius_px, 0.1, 100.0);
+  o.lidar_depth_gate = c.getInRange(p + "lidar_depth_gate", o.lidar_depth_gate, 0.0, 10.0);
+  o.lidar_scan_time_tol_s =
+      c.getInRange(p + "lidar_scan_time_tol_s", o.lidar_scan_time_tol_s, 0.0, 1.0);
+  o.lidar_min_associations =
+      c.getIntInRange(p + "lidar_min_associations", o.lidar_min_associations, 1, 10000);
+
+  o.init_parallax_deg = c.getInRange(p + "init_parallax_deg", o.init_parallax_deg, 0.01, 45.0);
+  o.init_min_tracks = c.getIntInRange(p + "init_min_tracks", o.init_min_tracks, 8, 100000);
+  o.init_max_wait_s = c.getInRange(p + "init_max_wait_s", o.init_max_wait_s, 0.05, 1e3);
+
+  o.standstill_flow_px = c.getInRange(p + "standstill_flow_px", o.standstill_flow_px, 0.0, 100.0);
+  o.standstill_gyro_radps =
+      c.getInRange(p + "standstill_gyro_radps", o.standstill_gyro_radps, 0.0, 10.0);
+
+  o.velocity_decay_per_s =
+      c.getInRange(p + "velocity_decay_per_s", o.velocity_decay_per_s, 0.0, 1.0);
+  o.reinit_after_lost_frames =
+      c.getIntInRange(p + "reinit_after_lost_frames", o.reinit_after_lost_frames, 1, 100000);
+
+  o.linear_solver =
+      c.getChoice(p + "linear_solver", o.linear_solver, {"dense_schur", "sparse_schur"});
+  o.max_iterations = c.getIntInRange(p + "max_iterations", o.max_iterations, 1, 1000);
+  o.max_solver_time_s = c.getInRange(p + "max_solver_time_s", o.max_solver_time_s, 0.0, 100.0);
+  o.motion_only_iterations =
+      c.getIntInRange(p + "motion_only_iterations", o.motion_only_iterations, 1, 100);
+  o.refine = c.getChoice(p + "refine", o.refine, {"none", "full"});
+  o.refine_iterations = c.getIntInRange(p + "refine_iterations", o.refine_iterations, 1, 1000);
+  o.marginalize_max_landmarks =
+      c.getIntInRange(p + "marginalize_max_landmarks", o.marginalize_max_landmarks, 0, 100000);
+
+  o.gyro = factors::readGyroPreintegrationOptions(c, "gyro");
+  return o;
+}
+
+}  // namespace ovo::estimator

@@ -1,0 +1,84 @@
+// Tuning of the sliding-window estimator (`--estimator window`, DESIGN section 7, issue 7). Keys
+// under "window." (readWindowOptions); gyro preintegration under "gyro.", the frontend's own
+// blocks ("frontend.", "ransac.") are read by their readers.
+#pragma once
+
+#include <string>
+
+#include "common/config.hpp"
+#include "factors/gyro_preintegration.hpp"
+
+namespace ovo::estimator {
+
+struct WindowOptions {
+  // Sensors.
+  bool use_gyro = true;   // false: vision-only rotation even when the dataset has a gyro
+  bool use_lidar = true;  // false: ground-plane scale even when the dataset has scans
+
+  // Window and keyframes.
+  int window_size = 10;          // keyframes in the window
+  double kf_parallax_deg = 5.0;  // rotation-compensated median parallax to the last kf, deg
+  double kf_parallax_scan_fraction = 0.6;  // a frame with a scan needs this fraction of it
+  double kf_track_fraction = 0.6;          // new kf when fewer of the last kf's tracks are alive
+  double kf_max_interval_s = 1.0;          // new kf at the latest after this time (when moving), s
+  int min_landmark_observations = 12;      // fewer landmarks seen in a frame: tracking lost
+  int max_features = 250;                  // tracks a keyframe keeps (spread over the image)
+  int max_lidar_features = 60;             // ... of which tracks picked next to LiDAR beams
+  double feature_cell_px = 40.0;           // spreading grid cell, px
+  int features_per_cell = 2;               // tracks per grid cell
+
+  // Landmarks.
+  double landmark_min_parallax_deg = 1.0;  // triangulation angle needed to create a landmark, deg
+  double landmark_min_depth_m = 0.2;       // nearer points are rejected, m (after scale init)
+  double landmark_max_depth_m = 80.0;      // farther points are kept out of the window, m
+  double outlier_angle_deg = 0.5;          // an observation further than this from its prediction
+                                           // after a solve is removed, deg
+
+  // Noise and losses.
+  double pixel_sigma = -1.0;                  // image noise, px; < 0: the rig's value
+  double bearing_huber_sigmas = 2.0;          // Huber loss threshold, in units of the bearing sigma
+  double lidar_range_sigma_m = -1.0;          // LiDAR range noise, m; < 0: the rig's value
+  double lidar_huber_sigmas = 2.0;            // Huber loss threshold of LiDAR factors, in sigmas
+  double gyro_bias_random_walk = -1.0;        // rad/s^2/sqrt(Hz); < 0: the rig's value
+  double gyro_bias_prior_sigma_radps = 0.02;  // prior on the first keyframe's bias, rad/s
+  double gauge_sigma_position_m = 1e-4;       // first-keyframe pose prior before the first marg., m
+  double gauge_sigma_yaw_rad = 1e-4;          // ... and its yaw/roll/pitch sigma, rad
+  double rotation_prior_sigma_rad = 2e-3;     // per-frame motion-only refinement: gyro rotation
+                                              // prior sigma on top of the preintegration noise, rad
+
+  // LiDAR association.
+  double lidar_radius_px = 4.0;          // beam end point to observation, px
+  double lidar_depth_gate = 0.25;        // relative depth agreement once the scale is set
+  double lidar_scan_time_tol_s = 0.004;  // a scan belongs to a frame within this time, s
+  int lidar_min_associations = 8;        // fewer (or disagreeing) at initialisation: ground plane
+
+  // Initialisation.
+  double init_parallax_deg = 1.5;  // rotation-compensated median parallax to initialise, deg
+  int init_min_tracks = 30;        // shared tracks needed between the two views
+  double init_max_wait_s = 2.0;    // after this long without init, half the parallax suffices, s
+
+  // Standstill.
+  double standstill_flow_px = 0.3;      // median flow to the previous frame below this ...
+  double standstill_gyro_radps = 0.02;  // ... and |w - b_g| below this: standstill
+
+  // Tracking loss.
+  double velocity_decay_per_s = 0.5;  // constant-velocity decay while lost (fraction kept per s)
+  int reinit_after_lost_frames = 5;   // lost this long: restart the window at the current pose
+
+  // Solver.
+  std::string linear_solver = "dense_schur";  // dense_schur | sparse_schur
+  int max_iterations = 8;                     // per window solve
+  double max_solver_time_s = 0.0;             // per window solve, s; 0 = no limit (online: ~0.04)
+  int motion_only_iterations = 5;             // per-frame pose refinement
+  std::string refine = "none";                // none | full (offline: re-optimise all keyframes)
+  int refine_iterations = 30;                 // full refinement iterations
+  int marginalize_max_landmarks = 60;         // ending landmarks Schur-complemented into the prior
+                                              // (the rest are dropped; the Schur step is dense)
+
+  factors::GyroPreintegrationOptions gyro;  // "gyro." keys
+};
+
+/// Reads every "window." key (and "gyro." through factors::readGyroPreintegrationOptions).
+WindowOptions readWindowOptions(const Config& config);
+
+}  // namespace ovo::estimator

@@ -1,0 +1,371 @@
+#include "estimator/window_problem.hpp"
+
+#include <ceres/ceres.h>
+
+#include <algorithm>
+#include <cmath>
+#include <unordered_map>
+
+#include "factors/bearing_factor.hpp"
+#include "factors/lidar_range_factor.hpp"
+#include "factors/parameterization.hpp"
+#include "factors/pose_prior_factor.hpp"
+
+namespace ovo::estimator {
+namespace {
+
+/// Prior on one gyro bias: r = (b_g - b_0) / sigma.
+class BiasPriorFactor final : public ceres::SizedCostFunction<3, 3> {
+ public:
+  BiasPriorFactor(const Vec3& b0, double sigma) : b0_(b0), inv_sigma_(1.0 / sigma) {}
+  bool Evaluate(double const* const* parameters, double* residuals,
+                double** jacobians) const override {
+    for (int i = 0; i < 3; ++i) residuals[i] = (parameters[0][i] - b0_[i]) * inv_sigma_;
+    if (jacobians != nullptr && jacobians[0] != nullptr) {
+      Eigen::Map<Eigen::Matrix<double, 3, 3, Eigen::RowMajor>> J(jacobians[0]);
+      J = Mat3::Identity() * inv_sigma_;
+    }
+    return true;
+  }
+
+ private:
+  Vec3 b0_;
+  double inv_sigma_;
+};
+
+std::unordered_map<int, Keyframe*> byId(const std::vector<Keyframe*>& keyframes) {
+  std::unordered_map<int, Keyframe*> out;
+  for (Keyframe* kf : keyframes) out[kf->id] = kf;
+  return out;
+}
+
+}  // namespace
+
+std::vector<FactorSpec> buildFactors(const std::vector<Keyframe*>& keyframes,
+                                     std::unordered_map<TrackId, Landmark>& landmarks,
+                                     const WindowModel& model, const WindowGauge& gauge) {
+  std::vector<FactorSpec> out;
+  const auto kf_of = byId(keyframes);
+
+  // Bearing and LiDAR factors of the landmarks.
+  for (auto& [id, lm] : landmarks) {
+    auto anchor_it = kf_of.find(lm.anchor_kf);
+    if (anchor_it == kf_of.end() || !(lm.rho[0] > 0.0)) continue;
+    Keyframe* anchor = anchor_it->second;
+    for (Keyframe* kf : keyframes) {
+      if (kf == anchor) continue;
+      auto obs = kf->observations.find(id);
+      if (obs == kf->observations.end()) continue;
+      auto cost = std::make_unique<factors::BearingFactor>(
+          lm.bearing_anchor_C, obs->second.bearing_C, model.T_B_C, model.bearing_sigma_rad);
+      const auto u =
+          cost->predictedBearing(anchor->q_W_B, anchor->p_W_B, kf->q_W_B, kf->p_W_B, lm.rho[0]);
+      if (!u || u->dot(obs->second.bearing_C) < std::cos(0.2)) continue;  // gross: > 11 deg
+      FactorSpec f;
+      f.kind = FactorKind::kBearing;
+      f.cost = std::move(cost);
+      f.loss = std::make_unique<ceres::HuberLoss>(model.bearing_huber);
+      f.blocks = {anchor->q_W_B, anchor->p_W_B, kf->q_W_B, kf->p_W_B, lm.rho};
+      f.track = id;
+      f.kf_id = kf->id;
+      out.push_back(std::move(f));
+    }
+  }
+  for (Keyframe* kf : keyframes) {
+    for (const LidarAssociation& a : kf->lidar) {
+      auto lm_it = landmarks.find(a.track_id);
+      if (lm_it == landmarks.end()) continue;
+      Landmark& lm = lm_it->second;
+      auto anchor_it = kf_of.find(lm.anchor_kf);
+      if (anchor_it == kf_of.end() || !(lm.rho[0] > 0.0)) continue;
+      FactorSpec f;
+      f.kind = FactorKind::kLidar;
+      f.loss = std::make_unique<ceres::HuberLoss>(model.lidar_huber);
+      if (anchor_it->second == kf) {
+        f.cost = std::make_unique<factors::LidarRangeAnchorFactor>(
+            lm.bearing_anchor_C, a.range_m, model.T_B_C, model.T_B_L, model.lidar_sigma_m);
+        f.blocks = {lm.rho};
+      } else {
+        Keyframe* anchor = anchor_it->second;
+        f.cost = std::make_unique<factors::LidarRangeFactor>(
+            lm.bearing_anchor_C, a.range_m, model.T_B_C, model.T_B_L, model.lidar_sigma_m);
+        f.blocks = {anchor->q_W_B, anchor->p_W_B, kf->q_W_B, kf->p_W_B, lm.rho};
+      }
+      f.track = a.track_id;
+      f.kf_id = kf->id;
+      out.push_back(std::move(f));
+    }
+  }
+
+  // Gyro and bias factors between consecutive keyframes of one segment.
+  if (model.use_gyro) {
+    for (std::size_t k = 1; k < keyframes.size(); ++k) {
+      Keyframe* i = keyframes[k - 1];
+      Keyframe* j = keyframes[k];
+      if (i->segment != j->segment || !j->preint_from_prev) continue;
+      FactorSpec g;
+      g.kind = FactorKind::kGyro;
+      g.cost = std::make_unique<factors::GyroFactor>(j->preint_from_prev);
+      g.blocks = {i->q_W_B, j->q_W_B, i->b_g};
+      g.kf_id = j->id;
+      out.push_back(std::move(g));
+      FactorSpec w;
+      w.kind = FactorKind::kBiasWalk;
+      w.cost = std::make_unique<factors::BiasRandomWalkFactor>(
+          model.bias_random_walk, std::max(1e-3, toSeconds(j->t_ns - i->t_ns)));
+      w.blocks = {i->b_g, j->b_g};
+      w.kf_id = j->id;
+      out.push_back(std::move(w));
+    }
+  }
+
+  // Gauge.
+  if (auto it = kf_of.find(gauge.kf_id); it != kf_of.end()) {
+    Keyframe* kf = it->second;
+    FactorSpec p;
+    p.kind = FactorKind::kPosePrior;
+    p.cost = std::make_unique<factors::PosePriorFactor>(
+        gauge.T_W_B, factors::PosePriorFactor::gaugeInformation(model.gauge_sigma_position_m,
+                                                                model.gauge_sigma_rotation_rad,
+                                                                model.gauge_sigma_rotation_rad));
+    p.blocks = {kf->q_W_B, kf->p_W_B};
+    p.kf_id = kf->id;
+    out.push_back(std::move(p));
+    if (model.use_gyro) {
+      FactorSpec b;
+      b.kind = FactorKind::kBiasPrior;
+      b.cost = std::make_unique<BiasPriorFactor>(gauge.b_g, model.bias_prior_sigma_radps);
+      b.blocks = {kf->b_g};
+      b.kf_id = kf->id;
+      out.push_back(std::move(b));
+    }
+  }
+  if (gauge.marginalization) {
+    FactorSpec m;
+    m.kind = FactorKind::kMarginal;
+    m.cost = std::make_unique<factors::MarginalizationFactor>(gauge.marginalization);
+    m.blocks = gauge.marginalization->keptBlocks();
+    out.push_back(std::move(m));
+  }
+  return out;
+}
+
+SolveSummary solveFactors(std::vector<FactorSpec> factors, const std::vector<Keyframe*>& keyframes,
+                          std::unordered_map<TrackId, Landmark>& landmarks,
+                          const WindowModel& model, const SolveOptions& options) {
+  SolveSummary summary;
+  if (factors.empty()) return summary;
+
+  // Backup for a diverged solve.
+  struct KfBackup {
+    double q[4], p[3], b[3];
+  };
+  std::vector<KfBackup> kf_backup(keyframes.size());
+  for (std::size_t k = 0; k < keyframes.size(); ++k) {
+    std::copy_n(keyframes[k]->q_W_B, 4, kf_backup[k].q);
+    std::copy_n(keyframes[k]->p_W_B, 3, kf_backup[k].p);
+    std::copy_n(keyframes[k]->b_g, 3, kf_backup[k].b);
+  }
+  std::unordered_map<TrackId, double> rho_backup;
+  for (const auto& [id, lm] : landmarks) rho_backup[id] = lm.rho[0];
+
+  ceres::Problem problem;
+  for (Keyframe* kf : keyframes)
+    problem.AddParameterBlock(kf->q_W_B, 4, factors::newQuaternionManifold());
+  for (FactorSpec& f : factors) {
+    problem.AddResidualBlock(f.cost.release(), f.loss.release(), f.blocks);
+    ++summary.residual_blocks;
+  }
+  // Keyframes without any factor (e.g. no landmark yet) must not be left floating.
+  for (Keyframe* kf : keyframes) {
+    std::vector<ceres::ResidualBlockId> ids;
+    problem.GetResidualBlocksForParameterBlock(kf->q_W_B, &ids);
+    if (ids.empty()) problem.RemoveParameterBlock(kf->q_W_B);
+  }
+  for (auto& [id, lm] : landmarks) {
+    if (!problem.HasParameterBlock(lm.rho)) continue;
+    problem.SetParameterLowerBound(lm.rho, 0, model.min_rho);
+    problem.SetParameterUpperBound(lm.rho, 0, model.max_rho);
+    lm.rho[0] = std::clamp(lm.rho[0], model.min_rho, model.max_rho);
+  }
+
+  ceres::Solver::Options so;
+  so.linear_solver_type =
+      options.linear_solver == "sparse_schur" ? ceres::SPARSE_SCHUR : ceres::DENSE_SCHUR;
+  so.max_num_iterations = options.max_iterations;
+  if (options.max_time_s > 0.0) so.max_solver_time_in_seconds = options.max_time_s;
+  so.num_threads = options.num_threads;
+  so.logging_type = ceres::SILENT;
+  so.minimizer_progress_to_stdout = false;
+  ceres::Solver::Summary s;
+  ceres::Solve(so, &problem, &s);
+
+  summary.iterations = static_cast<int>(s.iterations.size());
+  summary.initial_cost = s.initial_cost;
+  summary.final_cost = s.final_cost;
+  summary.message = s.message;
+  bool finite = s.termination_type != ceres::FAILURE;
+  for (const Keyframe* kf : keyframes)
+    finite = finite && std::isfinite(kf->q_W_B[0] + kf->q_W_B[1] + kf->q_W_B[2] + kf->q_W_B[3] +
+                                     kf->p_W_B[0] + kf->p_W_B[1] + kf->p_W_B[2] + kf->b_g[0] +
+                                     kf->b_g[1] + kf->b_g[2]);
+  for (const auto& [id, lm] : landmarks) finite = finite && std::isfinite(lm.rho[0]);
+  if (!finite) {
+    for (std::size_t k = 0; k < keyframes.size(); ++k) {
+      std::copy_n(kf_backup[k].q, 4, keyframes[k]->q_W_B);
+      std::copy_n(kf_backup[k].p, 3, keyframes[k]->p_W_B);
+      std::copy_n(kf_backup[k].b, 3, keyframes[k]->b_g);
+    }
+    for (auto& [id, lm] : landmarks) lm.rho[0] = rho_backup[id];
+    return summary;
+  }
+  for (Keyframe* kf : keyframes) {  // keep the quaternions exactly unit
+    factors::quatToBlock(factors::quatFromBlock(kf->q_W_B), kf->q_W_B);
+  }
+  summary.usable = true;
+  return summary;
+}
+
+std::vector<ObservationError> observationErrors(const std::vector<Keyframe*>& keyframes,
+                                                const std::unordered_map<TrackId, Landmark>& lms,
+                                                const WindowModel& model) {
+  std::vector<ObservationError> out;
+  const auto kf_of = byId(keyframes);
+  const SE3 T_C_B = model.T_B_C.inverse();
+  for (const auto& [id, lm] : lms) {
+    auto a = kf_of.find(lm.anchor_kf);
+    if (a == kf_of.end() || !(lm.rho[0] > 0.0)) continue;
+    const Vec3 p_W = a->second->pose() * (model.T_B_C * (lm.bearing_anchor_C / lm.rho[0]));
+    for (const Keyframe* kf : keyframes) {
+      if (kf == a->second) continue;
+      auto obs = kf->observations.find(id);
+      if (obs == kf->observations.end()) continue;
+      const Vec3 p_C = T_C_B * (kf->pose().inverse() * p_W);
+      const double n = p_C.norm();
+      const double c = n > 0.0 ? std::clamp(p_C.dot(obs->second.bearing_C) / n, -1.0, 1.0) : -1.0;
+      out.push_back({kf->id, id, std::acos(c)});
+    }
+  }
+  return out;
+}
+
+std::shared_ptr<const factors::MarginalizationInfo> marginalizeOldest(
+    WindowMap& map, const WindowModel& model, const WindowGauge& gauge,
+    const std::unordered_set<TrackId>& marginalize_tracks) {
+  if (map.keyframes.size() < 2) return nullptr;
+  Keyframe* oldest = map.keyframes.front().get();
+  std::vector<Keyframe*> kfs;
+  for (auto& kf : map.keyframes) kfs.push_back(kf.get());
+
+  std::vector<FactorSpec> all = buildFactors(kfs, map.landmarks, model, gauge);
+  auto info = std::make_shared<factors::MarginalizationInfo>();
+  for (Keyframe* kf : kfs) info->setQuaternionBlock(kf->q_W_B);
+
+  std::unordered_set<const double*> drop = {oldest->q_W_B, oldest->p_W_B, oldest->b_g};
+  for (auto& [id, lm] : map.landmarks)
+    if (lm.anchor_kf == oldest->id && marginalize_tracks.count(id)) drop.insert(lm.rho);
+
+  int added = 0;
+  for (const FactorSpec& f : all) {
+    bool touches = false;
+    for (const double* b : f.blocks) touches = touches || drop.count(b) > 0;
+    if (!touches) continue;
+    if (f.track >= 0) {
+      const auto it = map.landmarks.find(f.track);
+      const bool anchored_here = it != map.landmarks.end() && it->second.anchor_kf == oldest->id;
+      // Only the selected landmarks anchored here; a factor of a landmark anchored elsewhere
+      // would put its rho into the prior, so it is dropped as well.
+      if (!anchored_here || !marginalize_tracks.count(f.track)) continue;
+    }
+    std::vector<int> drop_idx;
+    for (std::size_t k = 0; k < f.blocks.size(); ++k)
+      if (drop.count(f.blocks[k])) drop_idx.push_back(static_cast<int>(k));
+    if (info->addResidualBlock(f.cost.get(), f.loss.get(), f.blocks, drop_idx)) ++added;
+  }
+  if (added == 0 || !info->marginalize()) return nullptr;
+  return info;
+}
+
+std::optional<PoseRefinement> refinePose(const std::vector<Vec3>& points_W,
+                                         const std::vector<Vec3>& bearings_C, const SE3& T_W_B_init,
+                                         const std::optional<Mat3>& R_W_B_prior,
+                                         double prior_sigma_rad, const WindowModel& model,
+                                         int max_iterations, double outlier_rad) {
+  const std::size_t n = points_W.size();
+  if (n < 3 || bearings_C.size() != n) return std::nullopt;
+  // Each point as an anchor at the world origin with identity rotation: b_a = p_W - t_B_C
+  // direction is awkward; instead anchor it in a virtual body frame at p_W - R t_B_C.
+  struct Anchor {
+    double q[4] = {0, 0, 0, 1};
+    double p[3] = {0, 0, 0};
+    double rho[1] = {1.0};
+    Vec3 bearing = Vec3::UnitZ();
+  };
+  std::vector<Anchor> anchors(n);
+  const Mat3 R_B_C = model.T_B_C.linear();
+  const Vec3 t_B_C = model.T_B_C.translation();
+  for (std::size_t i = 0; i < n; ++i) {
+    // Virtual anchor body with R_W_Ba = R_C_B (so that R_W_Ba R_B_C = I): its camera sits at
+    // p_W_Ba + R_W_Ba t_B_C; put that camera at the origin and the point at distance 1/rho.
+    const Mat3 R_W_Ba = R_B_C.transpose();
+    Vec3 d = points_W[i];
+    const double dist = d.norm();
+    if (!(dist > 1e-6)) return std::nullopt;
+    factors::quatToBlock(Quat(R_W_Ba), anchors[i].q);
+    const Vec3 p_W_Ba = -R_W_Ba * t_B_C;
+    for (int k = 0; k < 3; ++k) anchors[i].p[k] = p_W_Ba[k];
+    anchors[i].bearing = d / dist;
+    anchors[i].rho[0] = 1.0 / dist;
+  }
+  double q[4], p[3];
+  factors::quatToBlock(Quat(T_W_B_init.linear()).normalized(), q);
+  for (int k = 0; k < 3; ++k) p[k] = T_W_B_init.translation()[k];
+
+  ceres::Problem problem;
+  problem.AddParameterBlock(q, 4, factors::newQuaternionManifold());
+  problem.AddParameterBlock(p, 3);
+  for (std::size_t i = 0; i < n; ++i) {
+    auto* cost = new factors::BearingFactor(anchors[i].bearing, bearings_C[i], model.T_B_C,
+                                            model.bearing_sigma_rad);
+    problem.AddResidualBlock(cost, new ceres::HuberLoss(model.bearing_huber),
+                             {anchors[i].q, anchors[i].p, q, p, anchors[i].rho});
+    problem.SetParameterBlockConstant(anchors[i].q);
+    problem.SetParameterBlockConstant(anchors[i].p);
+    problem.SetParameterBlockConstant(anchors[i].rho);
+  }
+  if (R_W_B_prior) {
+    factors::Mat6 info = factors::Mat6::Zero();
+    info.topLeftCorner<3, 3>() = Mat3::Identity() / (prior_sigma_rad * prior_sigma_rad);
+    SE3 T0 = SE3::Identity();
+    T0.linear() = *R_W_B_prior;
+    problem.AddResidualBlock(new factors::PosePriorFactor(T0, info), nullptr, q, p);
+  }
+  ceres::Solver::Options so;
+  so.linear_solver_type = ceres::DENSE_QR;
+  so.max_num_iterations = max_iterations;
+  so.num_threads = 1;
+  so.logging_type = ceres::SILENT;
+  ceres::Solver::Summary s;
+  ceres::Solve(so, &problem, &s);
+  if (s.termination_type == ceres::FAILURE) return std::nullopt;
+
+  PoseRefinement out;
+  out.T_W_B = SE3::Identity();
+  out.T_W_B.linear() = factors::quatFromBlock(q).toRotationMatrix();
+  out.T_W_B.translation() = Vec3(p[0], p[1], p[2]);
+  if (!allFinite(out.T_W_B)) return std::nullopt;
+  const SE3 T_C_W = (out.T_W_B * model.T_B_C).inverse();
+  out.inlier.resize(n, 0);
+  const double cos_max = std::cos(outlier_rad);
+  for (std::size_t i = 0; i < n; ++i) {
+    const Vec3 p_C = T_C_W * points_W[i];
+    const double norm = p_C.norm();
+    if (norm > 0.0 && p_C.dot(bearings_C[i]) / norm > cos_max) {
+      out.inlier[i] = 1;
+      ++out.num_inliers;
+    }
+  }
+  return out;
+}
+
+}  // namespace ovo::estimator

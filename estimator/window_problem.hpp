@@ -1,0 +1,119 @@
+// Building and solving the window's Ceres problem (bearing, gyro, bias random walk, LiDAR range,
+// gauge and marginalisation factors), the marginalisation of the oldest keyframe, the per-frame
+// motion-only pose refinement, and the offline full refinement over every keyframe.
+#pragma once
+
+#include <ceres/cost_function.h>
+#include <ceres/loss_function.h>
+
+#include <memory>
+#include <optional>
+#include <string>
+#include <unordered_set>
+#include <vector>
+
+#include "estimator/window_map.hpp"
+#include "factors/marginalization.hpp"
+
+namespace ovo::estimator {
+
+/// Constants of the window's factors.
+struct WindowModel {
+  SE3 T_B_C = SE3::Identity();
+  SE3 T_B_L = SE3::Identity();
+  double bearing_sigma_rad = 0.5 / 305.0;  // pixel sigma / focal px
+  double bearing_huber = 2.0;              // Huber threshold on the whitened residual (sigmas)
+  double lidar_sigma_m = 0.02;
+  double lidar_huber = 2.0;
+  double bias_random_walk = 2.0e-5;  // rad/s^2/sqrt(Hz)
+  double bias_prior_sigma_radps = 0.02;
+  double gauge_sigma_position_m = 1e-4;
+  double gauge_sigma_rotation_rad = 1e-4;
+  double min_rho = 1.0 / 1000.0;  // 1/m
+  double max_rho = 1.0 / 0.1;     // 1/m
+  bool use_gyro = true;
+};
+
+/// What fixes the gauge of the window: a pose prior on one keyframe (before the first
+/// marginalisation) or the marginalisation prior (after), plus a bias prior.
+struct WindowGauge {
+  int kf_id = -1;               // keyframe with the pose and bias prior (-1: none)
+  SE3 T_W_B = SE3::Identity();  // its prior pose
+  Vec3 b_g = Vec3::Zero();      // its prior bias
+  std::shared_ptr<const factors::MarginalizationInfo> marginalization;
+};
+
+enum class FactorKind { kBearing, kGyro, kBiasWalk, kBiasPrior, kPosePrior, kLidar, kMarginal };
+
+/// One residual block before it goes into a Problem or a MarginalizationInfo.
+struct FactorSpec {
+  FactorKind kind = FactorKind::kBearing;
+  std::unique_ptr<ceres::CostFunction> cost;
+  std::unique_ptr<ceres::LossFunction> loss;
+  std::vector<double*> blocks;
+  TrackId track = -1;  // bearing / LiDAR: the landmark
+  int kf_id = -1;      // bearing: observing keyframe; LiDAR: scan keyframe; gyro: later keyframe
+};
+
+/// All factors over `keyframes` (time order) and `landmarks`. Landmarks whose anchor is not among
+/// the keyframes, or with fewer than one usable non-anchor observation, get no factor.
+std::vector<FactorSpec> buildFactors(const std::vector<Keyframe*>& keyframes,
+                                     std::unordered_map<TrackId, Landmark>& landmarks,
+                                     const WindowModel& model, const WindowGauge& gauge);
+
+struct SolveOptions {
+  std::string linear_solver = "dense_schur";  // dense_schur | sparse_schur
+  int max_iterations = 8;
+  double max_time_s = 0.0;  // 0: unlimited
+  int num_threads = 1;
+};
+
+struct SolveSummary {
+  bool usable = false;  // the solver ran and every state is finite
+  int iterations = 0;
+  int residual_blocks = 0;
+  double initial_cost = 0.0, final_cost = 0.0;
+  std::string message;
+};
+
+/// Solves the window in place. On failure (non-finite states) the states are restored.
+SolveSummary solveFactors(std::vector<FactorSpec> factors, const std::vector<Keyframe*>& keyframes,
+                          std::unordered_map<TrackId, Landmark>& landmarks,
+                          const WindowModel& model, const SolveOptions& options);
+
+/// Angular error (rad) of every bearing observation at the current states, by (kf id, track).
+struct ObservationError {
+  int kf_id;
+  TrackId track;
+  double angle_rad;
+};
+std::vector<ObservationError> observationErrors(const std::vector<Keyframe*>& keyframes,
+                                                const std::unordered_map<TrackId, Landmark>& lms,
+                                                const WindowModel& model);
+
+/// Marginalises the oldest keyframe of `map` (VINS-Mono / OKVIS style, DESIGN section 6): its
+/// states, its gyro / bias / gauge factors, the previous prior, and the landmarks it anchors that
+/// are listed in `marginalize_tracks` (Schur-complemented out with all their factors) go into the
+/// new prior. Factors of the other landmarks it anchors are dropped, not marginalised: those that
+/// live on are re-anchored by the caller (nothing is counted twice), the rest are forgotten (the
+/// caller bounds their number because the prior's Schur step is dense). Returns the new prior
+/// (null when the marginalisation failed; the caller then keeps a pose prior instead).
+std::shared_ptr<const factors::MarginalizationInfo> marginalizeOldest(
+    WindowMap& map, const WindowModel& model, const WindowGauge& gauge,
+    const std::unordered_set<TrackId>& marginalize_tracks);
+
+/// Motion-only refinement of one frame pose against landmarks fixed at their current values
+/// (world points), with a rotation prior (e.g. from the gyro). Returns the pose and, per point,
+/// whether it is an inlier (angle error below outlier_rad); nullopt when it fails.
+struct PoseRefinement {
+  SE3 T_W_B;
+  std::vector<char> inlier;
+  int num_inliers = 0;
+};
+std::optional<PoseRefinement> refinePose(const std::vector<Vec3>& points_W,
+                                         const std::vector<Vec3>& bearings_C, const SE3& T_W_B_init,
+                                         const std::optional<Mat3>& R_W_B_prior,
+                                         double prior_sigma_rad, const WindowModel& model,
+                                         int max_iterations, double outlier_rad);
+
+}  // namespace ovo::estimator

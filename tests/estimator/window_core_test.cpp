@@ -1,0 +1,210 @@
+// The window core on synthetic tracked bearings, gyro and LiDAR (no images): known trajectories
+// with known scale, standstill, gyro gaps, dropped frames, tracking loss and marginalisation.
+#include "estimator/window_core.hpp"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <map>
+
+#include "common/so3.hpp"
+#include "tests/estimator/window_synthetic.hpp"
+#include "tests/test_support.hpp"
+
+namespace ovo::estimator {
+namespace {
+
+using test::SyntheticOptions;
+
+/// The RoMoVi fisheye when the shared data is there, else a pinhole.
+test::SyntheticSequence makeSyntheticSequence(const SyntheticOptions& o) {
+  return test::makeSyntheticSequence(o, test::sharedData("romovi-fisheye-calib/calib_results.txt"));
+}
+using test::SyntheticSequence;
+
+struct RunResult {
+  Trajectory trajectory;
+  std::vector<FrameEstimate> estimates;
+  EstimatorStats stats;
+};
+
+RunResult run(const SyntheticSequence& seq, WindowOptions options = {}) {
+  WindowCore core(seq.setup, options);
+  RunResult r;
+  const bool debug = std::getenv("OVO_WINDOW_DEBUG") != nullptr;
+  test::feedSequence(seq, core, [&](std::size_t i, const FrameEstimate& e) {
+    r.estimates.push_back(e);
+    if (debug) {
+      const SE3 T_true = seq.frames.front().T_W_B.inverse() * seq.frames[i].T_W_B;
+      std::printf(
+          "%3zu %-18s kf=%d lm=%zu nkf=%zu p=(%.3f %.3f %.3f) true=(%.3f %.3f %.3f) it=%d lid=%d\n",
+          i, e.status.c_str(), e.is_keyframe, core.map().landmarks.size(),
+          core.map().keyframes.size(), e.T_W_B.translation().x(), e.T_W_B.translation().y(),
+          e.T_W_B.translation().z(), T_true.translation().x(), T_true.translation().y(),
+          T_true.translation().z(), core.lastSolve().iterations, core.lastSolve().lidar_factors);
+    }
+  });
+  r.trajectory = core.trajectory();
+  r.stats = core.stats();
+  return r;
+}
+
+/// Ground truth of frame i relative to the first frame (the estimator's W = B at frame 0).
+SE3 truthRel(const SyntheticSequence& seq, std::size_t i) {
+  return seq.frames.front().T_W_B.inverse() * seq.frames[i].T_W_B;
+}
+
+double pathLength(const SyntheticSequence& seq) {
+  double len = 0.0;
+  for (std::size_t i = 1; i < seq.frames.size(); ++i)
+    len += (seq.frames[i].T_W_B.translation() - seq.frames[i - 1].T_W_B.translation()).norm();
+  return len;
+}
+
+void expectAllFinite(const RunResult& r) {
+  for (const auto& e : r.estimates) ASSERT_TRUE(allFinite(e.T_W_B)) << "t " << e.t_ns;
+  for (const auto& p : r.trajectory) ASSERT_TRUE(allFinite(p.T_W_B)) << "t " << p.t_ns;
+}
+
+double maxStep(const Trajectory& traj) {
+  double m = 0.0;
+  for (std::size_t i = 1; i < traj.size(); ++i)
+    m = std::max(m, (traj[i].T_W_B.translation() - traj[i - 1].T_W_B.translation()).norm());
+  return m;
+}
+
+TEST(WindowCore, TracksADriveWithMetricScaleFromTheLidar) {
+  SyntheticOptions o;
+  const auto seq = makeSyntheticSequence(o);
+  const auto r = run(seq);
+  expectAllFinite(r);
+  ASSERT_EQ(r.trajectory.size(), seq.frames.size());
+  const double length = pathLength(seq);
+  ASSERT_GT(length, 3.0);
+  const SE3 T_true = truthRel(seq, seq.frames.size() - 1);
+  const SE3 T_est = r.trajectory.back().T_W_B;
+  const double scale = T_est.translation().norm() / T_true.translation().norm();
+  EXPECT_NEAR(scale, 1.0, 0.03) << "final distance from the start, estimated / true";
+  EXPECT_LT((T_est.translation() - T_true.translation()).norm(), 0.02 * length);
+  EXPECT_LT(so3::angle(T_est.linear().transpose() * T_true.linear()) * 180.0 / M_PI, 0.5);
+  EXPECT_GT(r.stats.keyframes, 5);
+  EXPECT_GT(r.stats.lidar_scale_frames, 0);
+  EXPECT_GT(r.stats.frames_tracked, static_cast<int>(0.6 * seq.frames.size()));  // init: ~1.5 s
+}
+
+TEST(WindowCore, HoldsThePoseDuringAStandstill) {
+  SyntheticOptions o;
+  o.duration_s = 6.0;
+  o.stop_from_s = 3.0;
+  o.stop_to_s = 4.5;
+  const auto seq = makeSyntheticSequence(o);
+  const auto r = run(seq);
+  expectAllFinite(r);
+  std::vector<Vec3> held;
+  for (std::size_t i = 0; i < seq.frames.size(); ++i) {
+    const double t = toSeconds(seq.frames[i].t_ns);
+    if (t > 3.1 && t < 4.4) held.push_back(r.estimates[i].T_W_B.translation());
+  }
+  ASSERT_GT(held.size(), 10u);
+  for (const Vec3& p : held) EXPECT_LT((p - held.front()).norm(), 1e-3);
+  int standstill = 0;
+  for (const auto& e : r.estimates) standstill += e.status == "standstill";
+  EXPECT_GT(standstill, 10);
+}
+
+TEST(WindowCore, GyroGapAndDroppedFramesKeepTheTrajectoryContinuous) {
+  SyntheticOptions o;
+  o.gyro_gap_from_s = 2.5;
+  o.gyro_gap_to_s = 2.8;
+  auto seq = makeSyntheticSequence(o);
+  // Drop 6 camera frames (0.3 s) after the gap.
+  seq.frames.erase(seq.frames.begin() + 70, seq.frames.begin() + 76);
+  const auto r = run(seq);
+  expectAllFinite(r);
+  EXPECT_GE(r.stats.gyro_gaps, 1);
+  EXPECT_LT(maxStep(r.trajectory), 0.8 * 0.35 + 0.05);  // at most the 0.35 s hole at 0.8 m/s
+  const SE3 T_true = truthRel(seq, seq.frames.size() - 1);
+  EXPECT_LT((r.trajectory.back().T_W_B.translation() - T_true.translation()).norm(),
+            0.05 * pathLength(seq));
+}
+
+TEST(WindowCore, RecoversFromTrackingLossWithoutJumpingToTheOrigin) {
+  SyntheticOptions o;
+  o.duration_s = 7.0;
+  auto seq = makeSyntheticSequence(o);
+  for (std::size_t i = 60; i < 72; ++i) seq.frames[i].visual.frontend_ok = false;  // 0.6 s blind
+  const auto r = run(seq);
+  expectAllFinite(r);
+  EXPECT_GE(r.stats.tracking_losses, 1);
+  EXPECT_LT(maxStep(r.trajectory), 0.15);
+  // Tracking comes back and the last poses are tracked again.
+  EXPECT_TRUE(r.estimates.back().tracked);
+  const SE3 T_true = truthRel(seq, seq.frames.size() - 1);
+  EXPECT_LT((r.trajectory.back().T_W_B.translation() - T_true.translation()).norm(),
+            0.1 * pathLength(seq));
+}
+
+TEST(WindowCore, MarginalizationDoesNotMoveTheWindow) {
+  SyntheticOptions o;
+  o.duration_s = 7.0;
+  const auto seq = makeSyntheticSequence(o);
+  WindowOptions options;
+  options.window_size = 4;
+  WindowCore core(seq.setup, options);
+  int marginalizations = 0;
+  double max_jump = 0.0;
+  std::map<int, SE3> before;
+  int front_id = -1;
+  test::feedSequence(seq, core, [&](std::size_t, const FrameEstimate&) {
+    const auto& kfs = core.map().keyframes;
+    if (kfs.empty()) return;
+    if (front_id >= 0 && kfs.front()->id != front_id) {
+      ++marginalizations;
+      const auto it = before.find(kfs.front()->id);
+      if (it != before.end())
+        max_jump = std::max(max_jump,
+                            (kfs.front()->pose().translation() - it->second.translation()).norm());
+    }
+    front_id = kfs.front()->id;
+    before.clear();
+    for (const auto& kf : kfs) before[kf->id] = kf->pose();
+  });
+  EXPECT_GT(marginalizations, 3);
+  EXPECT_LT(max_jump, 0.01) << "the new first keyframe moved after marginalising the old one";
+}
+
+TEST(WindowCore, WithoutLidarFallsBackToTheGroundPlaneAndSaysSo) {
+  SyntheticOptions o;
+  const auto seq = makeSyntheticSequence(o);
+  WindowOptions options;
+  options.use_lidar = false;
+  const auto r = run(seq, options);
+  expectAllFinite(r);
+  ASSERT_FALSE(r.stats.notes.empty());
+  EXPECT_NE(r.stats.notes.front().find("ground-plane"), std::string::npos);
+  EXPECT_EQ(r.stats.lidar_scale_frames, 0);
+  const SE3 T_true = truthRel(seq, seq.frames.size() - 1);
+  const double scale = r.trajectory.back().T_W_B.translation().norm() / T_true.translation().norm();
+  EXPECT_NEAR(scale, 1.0, 0.15);
+}
+
+TEST(WindowCore, WithoutGyroUsesVisionOnlyRotationAndSaysSo) {
+  SyntheticOptions o;
+  const auto seq = makeSyntheticSequence(o);
+  WindowOptions options;
+  options.use_gyro = false;
+  const auto r = run(seq, options);
+  expectAllFinite(r);
+  bool said = false;
+  for (const auto& n : r.stats.notes) said = said || n.find("no gyro") != std::string::npos;
+  EXPECT_TRUE(said);
+  const SE3 T_true = truthRel(seq, seq.frames.size() - 1);
+  EXPECT_LT((r.trajectory.back().T_W_B.translation() - T_true.translation()).norm(),
+            0.05 * pathLength(seq));
+}
+
+}  // namespace
+}  // namespace ovo::estimator

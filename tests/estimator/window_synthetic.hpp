@@ -1,0 +1,210 @@
+// A small synthetic vineyard for the window estimator's tests, without images: landmarks on two
+// canopy slabs and the ground, a robot driving along the inter-row with a gentle yaw weave,
+// noisy tracked bearings (exact track ids), a biased noisy gyro and a planar LiDAR ray-cast
+// against the same slabs and ground. Deterministic for a seed.
+#pragma once
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <random>
+#include <vector>
+
+#include "camera/calib_io.hpp"
+#include "camera/camera.hpp"
+#include "estimator/estimator.hpp"
+#include "estimator/window_map.hpp"
+
+namespace ovo::test {
+
+struct SyntheticOptions {
+  double duration_s = 6.0;
+  double camera_rate_hz = 20.0;
+  double gyro_rate_hz = 200.0;
+  double start_hold_s = 0.5;
+  double speed_mps = 0.8;
+  double stop_from_s = -1.0, stop_to_s = -1.0;  // a standstill in the middle (s)
+  double yaw_amplitude_deg = 3.0;
+  double yaw_period_s = 4.0;
+  double pixel_sigma = 0.15;                    // feature noise (px); the rig says 0.5
+  Vec3 gyro_bias = Vec3(0.004, -0.003, 0.005);  // rad/s
+  double gyro_noise_density = 1.7e-4;
+  double gyro_gap_from_s = -1.0, gyro_gap_to_s = -1.0;  // no gyro samples inside (s)
+  std::uint32_t seed = 3;
+};
+
+struct SyntheticFrame {
+  Timestamp t_ns;
+  SE3 T_W_B;  // ground truth
+  estimator::VisualFrame visual;
+};
+
+struct SyntheticSequence {
+  estimator::SensorSetup setup{camera::PinholeRadtanCamera(300, 300, 320, 240, 640, 480), {}, {}};
+  std::vector<SyntheticFrame> frames;
+  std::vector<ImuSample> imu;
+  std::vector<LidarScan> scans;  // one on every second camera frame
+};
+
+inline double syntheticSpeed(const SyntheticOptions& o, double t) {
+  auto ramp = [](double x) { return x <= 0 ? 0.0 : x >= 1 ? 1.0 : 0.5 - 0.5 * std::cos(M_PI * x); };
+  double v = o.speed_mps * ramp(t - o.start_hold_s);
+  if (o.stop_from_s >= 0.0) {
+    const double down = ramp((t - o.stop_from_s + 1.0) / 1.0);  // slows over 1 s before the stop
+    const double up = ramp(t - o.stop_to_s);
+    v *= 1.0 - down + (t >= o.stop_to_s ? up : 0.0);
+    if (t >= o.stop_from_s && t < o.stop_to_s) v = 0.0;
+  }
+  return v;
+}
+
+/// `ocam_calibration`: the RoMoVi fisheye's calib_results.txt; an ideal 640x480 pinhole when
+/// the file does not exist.
+inline SyntheticSequence makeSyntheticSequence(const SyntheticOptions& o,
+                                               const std::filesystem::path& ocam_calibration) {
+  SyntheticSequence seq;
+  if (std::filesystem::exists(ocam_calibration))
+    seq.setup.camera = camera::loadCamera(ocam_calibration);
+  // Rig as in the simulator: camera z along body x, pitched 12 deg down; LiDAR pitched 8 deg.
+  Mat3 R_B_C0;
+  R_B_C0.col(0) = -Vec3::UnitY();
+  R_B_C0.col(1) = -Vec3::UnitZ();
+  R_B_C0.col(2) = Vec3::UnitX();
+  const Mat3 pitch_c = Eigen::AngleAxisd(12.0 * M_PI / 180.0, Vec3::UnitY()).toRotationMatrix();
+  const Mat3 pitch_l = Eigen::AngleAxisd(8.0 * M_PI / 180.0, Vec3::UnitY()).toRotationMatrix();
+  seq.setup.T_B_C.linear() = pitch_c * R_B_C0;
+  seq.setup.T_B_C.translation() = Vec3(0.35, 0.0, 0.7);
+  seq.setup.T_B_L.linear() = pitch_l;
+  seq.setup.T_B_L.translation() = Vec3(0.45, 0.0, 0.45);
+  seq.setup.camera_rate_hz = o.camera_rate_hz;
+  seq.setup.pixel_sigma = 0.5;
+  seq.setup.camera_height_m = 0.3 + 0.7;  // body 0.3 m above the ground
+  seq.setup.gyro_noise_density = o.gyro_noise_density;
+  seq.setup.has_gyro = true;
+  seq.setup.has_lidar = true;
+
+  std::mt19937 rng(o.seed);
+  std::uniform_real_distribution<double> uni(0.0, 1.0);
+  std::normal_distribution<double> gauss(0.0, 1.0);
+
+  // Landmarks: canopy slabs at y = +-1.25 (0.5..1.9 m high) and the ground, x in [-5, 40].
+  std::vector<Vec3> points;
+  for (int side = -1; side <= 1; side += 2)
+    for (int i = 0; i < 3000; ++i)
+      points.emplace_back(-5.0 + 45.0 * uni(rng), side * (1.25 + 0.1 * (uni(rng) - 0.5)),
+                          0.5 + 1.4 * uni(rng));
+  for (int i = 0; i < 1000; ++i)
+    points.emplace_back(-5.0 + 45.0 * uni(rng), -1.1 + 2.2 * uni(rng), 0.0);
+
+  // Trajectory by integration at 1 kHz.
+  const double dt = 1e-3;
+  const int steps = static_cast<int>(o.duration_s / dt) + 2;
+  std::vector<SE3> poses(steps);
+  std::vector<double> yaw_rate(steps);
+  double x = 0.0, y = 0.0, psi = 0.0;
+  const double w = 2.0 * M_PI / o.yaw_period_s;
+  const double amp = o.yaw_amplitude_deg * M_PI / 180.0;
+  for (int k = 0; k < steps; ++k) {
+    const double t = k * dt;
+    const double moving = syntheticSpeed(o, t) / std::max(1e-9, o.speed_mps);
+    const double tm = std::max(0.0, t - o.start_hold_s);
+    psi = amp * std::sin(w * tm) * moving;
+    yaw_rate[k] = 0.0;  // filled by differences below
+    SE3 T = SE3::Identity();
+    T.linear() = Eigen::AngleAxisd(psi, Vec3::UnitZ()).toRotationMatrix();
+    T.translation() = Vec3(x, y, 0.3);
+    poses[k] = T;
+    const double v = syntheticSpeed(o, t);
+    x += v * std::cos(psi) * dt;
+    y += v * std::sin(psi) * dt;
+  }
+  auto yawAt = [&](int k) { return std::atan2(poses[k].linear()(1, 0), poses[k].linear()(0, 0)); };
+  for (int k = 0; k + 1 < steps; ++k) yaw_rate[k] = (yawAt(k + 1) - yawAt(k)) / dt;
+  yaw_rate[steps - 1] = yaw_rate[steps - 2];
+  auto poseAt = [&](double t) {
+    return poses[std::min(steps - 1, static_cast<int>(std::lround(t / dt)))];
+  };
+
+  // Gyro.
+  const double gyro_sigma = o.gyro_noise_density * std::sqrt(o.gyro_rate_hz);
+  for (double t = 0.0; t <= o.duration_s + 0.05; t += 1.0 / o.gyro_rate_hz) {
+    if (t >= o.gyro_gap_from_s && t < o.gyro_gap_to_s) continue;
+    const int k = std::min(steps - 1, static_cast<int>(std::lround(t / dt)));
+    ImuSample s;
+    s.t_ns = fromSeconds(t);
+    s.gyro_radps = Vec3(0, 0, yaw_rate[k]) + o.gyro_bias +
+                   gyro_sigma * Vec3(gauss(rng), gauss(rng), gauss(rng));
+    s.accel_mps2 = Vec3(0, 0, 9.81);
+    seq.imu.push_back(s);
+  }
+
+  // Frames and scans.
+  const SE3& T_B_C = seq.setup.T_B_C;
+  const int n_frames = static_cast<int>(o.duration_s * o.camera_rate_hz);
+  for (int f = 0; f < n_frames; ++f) {
+    const double t = f / o.camera_rate_hz;
+    SyntheticFrame frame;
+    frame.t_ns = fromSeconds(t);
+    frame.T_W_B = poseAt(t);
+    frame.visual.t_ns = frame.t_ns;
+    const SE3 T_C_W = (frame.T_W_B * T_B_C).inverse();
+    for (std::size_t i = 0; i < points.size(); ++i) {
+      const Vec3 p_C = T_C_W * points[i];
+      const double d = p_C.norm();
+      if (d < 0.3 || d > 12.0 || p_C.z() < -0.2 * d) continue;
+      const auto px = camera::project(seq.setup.camera, p_C);
+      if (!px || !camera::isValid(seq.setup.camera, *px)) continue;
+      const Vec2 noisy = *px + o.pixel_sigma * Vec2(gauss(rng), gauss(rng));
+      const auto b = camera::unproject(seq.setup.camera, noisy);
+      if (!b) continue;
+      frame.visual.observations.push_back({static_cast<estimator::TrackId>(i), noisy, *b});
+    }
+    if (f % 2 == 0) {
+      LidarScan scan;
+      scan.t_ns = frame.t_ns;
+      scan.angle_min_rad = -135.0 * M_PI / 180.0;
+      scan.angle_increment_rad = 0.5 * M_PI / 180.0;
+      scan.range_min_m = 0.1;
+      scan.range_max_m = 12.0;
+      const SE3 T_W_L = frame.T_W_B * seq.setup.T_B_L;
+      for (int b = 0; b <= 540; ++b) {
+        const double a = scan.angle_min_rad + b * scan.angle_increment_rad;
+        const Vec3 o_W = T_W_L.translation();
+        const Vec3 d_W = T_W_L.linear() * Vec3(std::cos(a), std::sin(a), 0.0);
+        double best = 1e9;
+        for (int side = -1; side <= 1; side += 2) {  // canopy slabs
+          if (std::abs(d_W.y()) < 1e-9) continue;
+          const double s = (side * 1.25 - o_W.y()) / d_W.y();
+          const double z = o_W.z() + s * d_W.z();
+          if (s > 0 && z > 0.5 && z < 1.9) best = std::min(best, s);
+        }
+        if (d_W.z() < -1e-9) best = std::min(best, -o_W.z() / d_W.z());  // ground
+        scan.ranges_m.push_back(best <= 12.0 ? best + 0.02 * gauss(rng) : 0.0);
+      }
+      seq.scans.push_back(scan);
+    }
+    seq.frames.push_back(std::move(frame));
+  }
+  return seq;
+}
+
+/// Feeds a sequence to anything with addGyro / addScan / processFrame (gyro up to the first
+/// sample after each frame, scans up to the frame time); calls on_frame(index, estimate).
+template <typename Core, typename OnFrame>
+void feedSequence(const SyntheticSequence& seq, Core& core, OnFrame on_frame) {
+  std::size_t next_imu = 0, next_scan = 0;
+  for (std::size_t f = 0; f < seq.frames.size(); ++f) {
+    const auto& frame = seq.frames[f];
+    while (next_imu < seq.imu.size()) {
+      const bool past = seq.imu[next_imu].t_ns >= frame.t_ns;
+      core.addGyro(seq.imu[next_imu++]);
+      if (past) break;
+    }
+    while (next_scan < seq.scans.size() && seq.scans[next_scan].t_ns <= frame.t_ns)
+      core.addScan(seq.scans[next_scan++]);
+    on_frame(f, core.processFrame(frame.visual));
+  }
+  core.finish();
+}
+
+}  // namespace ovo::test
