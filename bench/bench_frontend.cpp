@@ -7,9 +7,11 @@
 #include <memory>
 #include <opencv2/imgcodecs.hpp>
 #include <optional>
+#include <random>
 
 #include "camera/calib_io.hpp"
 #include "common/config.hpp"
+#include "frontend/delaunay.hpp"
 #include "frontend/features.hpp"
 #include "frontend/frontend.hpp"
 #include "frontend/matcher.hpp"
@@ -147,6 +149,22 @@ void runMatch(benchmark::State& state, const std::optional<FramePair>& pair, boo
   state.counters["delaunay_ms"] = delaunay_ms / iters;
 }
 
+// Delaunay flow filter on n uniformly random points of a 640x480 image, 5 % planted outliers.
+void runDelaunay(benchmark::State& state) {
+  const auto n = static_cast<std::size_t>(state.range(0));
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> u(0.0, 640.0), v(0.0, 480.0);
+  std::vector<Vec2> px(n), flow(n, Vec2(2.0, -1.0));
+  for (std::size_t k = 0; k < n; ++k) {
+    px[k] = Vec2(u(rng), v(rng));
+    if (k % 20 == 0) flow[k] = Vec2(20.0, 5.0);
+  }
+  for (auto _ : state) {
+    const auto keep = frontend::delaunaySupportFilter(px, flow, 5.0, 4);
+    benchmark::DoNotOptimize(keep.data());
+  }
+}
+
 const bool registered = [] {
   const auto unit = [](benchmark::internal::Benchmark* b) { b->Unit(benchmark::kMillisecond); };
   unit(benchmark::RegisterBenchmark("BM_Frontend/ocam640x480",
@@ -172,6 +190,10 @@ const bool registered = [] {
                                     [](benchmark::State& s) { runMatch(s, ocamPair(), true); }));
   unit(benchmark::RegisterBenchmark("BM_Match/full/kitti1226x370",
                                     [](benchmark::State& s) { runMatch(s, kittiPair(), false); }));
+  benchmark::RegisterBenchmark("BM_Delaunay/support", runDelaunay)
+      ->Arg(1000)
+      ->Arg(5000)
+      ->Unit(benchmark::kMillisecond);
   return true;
 }();
 

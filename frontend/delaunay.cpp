@@ -4,26 +4,203 @@
 #include <cmath>
 #include <cstdint>
 #include <limits>
-#include <opencv2/imgproc.hpp>
 
 namespace ovo::frontend {
 namespace {
 
-// Subdiv2D keeps its quad-edge list protected; this exposes the count needed to visit every edge.
-class IndexedSubdiv : public cv::Subdiv2D {
- public:
-  using cv::Subdiv2D::Subdiv2D;
-  int numEdges() const { return static_cast<int>(qedges.size()) * 4; }
-  bool edgeFree(int edge) const { return qedges[edge >> 2].isfree(); }
+__extension__ typedef __int128 Int128;
+
+// Points on a 1/256 px integer grid, so that the orientation and in-circle predicates are exact
+// (int64 and int128): the triangulation cannot break on the many collinear and cocircular feature
+// positions of a pixel grid.
+struct IPoint {
+  std::int64_t x, y;
 };
 
-constexpr int kFirstRealVertex = 4;  // Subdiv2D: vertex 0 is a dummy, 1..3 the outer triangle
+// > 0 when a, b, c turn counter-clockwise (in the algebraic x-y sense).
+inline std::int64_t orient(const IPoint& a, const IPoint& b, const IPoint& c) {
+  return (b.x - a.x) * (c.y - a.y) - (b.y - a.y) * (c.x - a.x);
+}
 
-}  // namespace
+// True when d lies strictly inside the circumcircle of the counter-clockwise triangle a, b, c.
+// Evaluated in double with Shewchuk's static error bound ("Adaptive Precision Floating-Point
+// Arithmetic and Fast Robust Geometric Predicates", 1997; the inputs are exact integers), and in
+// int128 when the sign is not certain.
+inline bool inCircle(const IPoint& a, const IPoint& b, const IPoint& c, const IPoint& d) {
+  const std::int64_t adx = a.x - d.x, ady = a.y - d.y;
+  const std::int64_t bdx = b.x - d.x, bdy = b.y - d.y;
+  const std::int64_t cdx = c.x - d.x, cdy = c.y - d.y;
+  {
+    const double ax = double(adx), ay = double(ady), bx = double(bdx), by = double(bdy);
+    const double cx = double(cdx), cy = double(cdy);
+    const double bxcy = bx * cy, cxby = cx * by, cxay = cx * ay, axcy = ax * cy;
+    const double axby = ax * by, bxay = bx * ay;
+    const double alift = ax * ax + ay * ay, blift = bx * bx + by * by, clift = cx * cx + cy * cy;
+    const double det = alift * (bxcy - cxby) + blift * (cxay - axcy) + clift * (axby - bxay);
+    const double permanent = (std::abs(bxcy) + std::abs(cxby)) * alift +
+                             (std::abs(cxay) + std::abs(axcy)) * blift +
+                             (std::abs(axby) + std::abs(bxay)) * clift;
+    constexpr double kEps = std::numeric_limits<double>::epsilon() / 2.0;
+    const double bound = (10.0 + 96.0 * kEps) * kEps * permanent;
+    if (det > bound) return true;
+    if (-det > bound) return false;
+  }
+  const Int128 alift = Int128(adx) * adx + Int128(ady) * ady;
+  const Int128 blift = Int128(bdx) * bdx + Int128(bdy) * bdy;
+  const Int128 clift = Int128(cdx) * cdx + Int128(cdy) * cdy;
+  const Int128 det = alift * (Int128(bdx) * cdy - Int128(cdx) * bdy) +
+                     blift * (Int128(cdx) * ady - Int128(adx) * cdy) +
+                     clift * (Int128(adx) * bdy - Int128(bdx) * ady);
+  return det > 0;
+}
 
-std::vector<std::array<int, 3>> delaunayTriangles(const std::vector<Vec2>& points) {
-  std::vector<std::array<int, 3>> triangles;
-  if (points.size() < 3) return triangles;
+// Triangle with counter-clockwise vertices; nbr[k] is the triangle across the edge opposite
+// vert[k] (-1: none).
+struct Tri {
+  int vert[3];
+  int nbr[3];
+  bool alive;
+};
+
+// Incremental Bowyer-Watson triangulation inside a large enclosing triangle (vertices 0..2),
+// points inserted in a spatially coherent order and located by a visibility walk from the
+// previous insertion (Lawson's walk terminates on a Delaunay triangulation).
+class Triangulation {
+ public:
+  static constexpr int kNumSuper = 3;
+
+  explicit Triangulation(std::size_t capacity) {
+    pts_.reserve(capacity + kNumSuper);
+    tris_.reserve(2 * capacity + 8);
+  }
+
+  void init(const IPoint& s0, const IPoint& s1, const IPoint& s2) {
+    pts_ = {s0, s1, s2};
+    tris_.push_back({{0, 1, 2}, {-1, -1, -1}, true});
+    last_ = 0;
+  }
+
+  // Inserts p; returns its vertex id, or the id of an existing vertex at the same position.
+  int insert(const IPoint& p) {
+    const int t0 = locate(p);
+    for (const int v : tris_[t0].vert) {
+      if (pts_[v].x == p.x && pts_[v].y == p.y) return v;
+    }
+    const int pv = static_cast<int>(pts_.size());
+    pts_.push_back(p);
+    // Cavity: triangles whose circumcircle strictly contains p, connected to t0.
+    bad_.clear();
+    stack_.clear();
+    stack_.push_back(t0);
+    tris_[t0].alive = false;
+    while (!stack_.empty()) {
+      const int t = stack_.back();
+      stack_.pop_back();
+      bad_.push_back(t);
+      for (const int n : tris_[t].nbr) {
+        if (n < 0 || !tris_[n].alive) continue;
+        const Tri& tn = tris_[n];
+        if (inCircle(pts_[tn.vert[0]], pts_[tn.vert[1]], pts_[tn.vert[2]], p)) {
+          tris_[n].alive = false;
+          stack_.push_back(n);
+        }
+      }
+    }
+    // Boundary edges (a, b), counter-clockwise as seen from inside the cavity, with the triangle
+    // outside them; each becomes a new triangle (a, b, p).
+    boundary_.clear();
+    for (const int t : bad_) {
+      for (int k = 0; k < 3; ++k) {
+        const int n = tris_[t].nbr[k];
+        if (n >= 0 && !tris_[n].alive) continue;
+        boundary_.push_back({tris_[t].vert[(k + 1) % 3], tris_[t].vert[(k + 2) % 3], n, -1});
+      }
+    }
+    // A cavity of m triangles has m + 2 boundary edges: reuse the m slots, append two.
+    std::size_t reuse = 0;
+    for (Edge& e : boundary_) {
+      int t;
+      if (reuse < bad_.size()) {
+        t = bad_[reuse++];
+      } else {
+        t = static_cast<int>(tris_.size());
+        tris_.push_back({});
+      }
+      e.tri = t;
+      tris_[t] = {{e.a, e.b, pv}, {-1, -1, e.outside}, true};
+      if (e.outside >= 0) {
+        Tri& o = tris_[e.outside];
+        for (int k = 0; k < 3; ++k) {
+          if (o.vert[k] != e.a && o.vert[k] != e.b) o.nbr[k] = t;
+        }
+      }
+    }
+    // New triangles (a, b, p) and (b, c, p) share the edge (b, p); the cavity boundary is a simple
+    // polygon, so each vertex starts exactly one boundary edge.
+    if (tri_from_vertex_.size() < pts_.size()) tri_from_vertex_.resize(2 * pts_.size());
+    for (const Edge& e : boundary_) tri_from_vertex_[e.a] = e.tri;
+    for (const Edge& e : boundary_) {
+      const int next = tri_from_vertex_[e.b];
+      tris_[e.tri].nbr[0] = next;  // across (b, p), opposite a
+      tris_[next].nbr[1] = e.tri;  // across (p, b) of (b, c, p), opposite its b
+    }
+    last_ = boundary_.front().tri;
+    return pv;
+  }
+
+  const std::vector<Tri>& triangles() const { return tris_; }
+
+ private:
+  struct Edge {
+    int a, b, outside, tri;
+  };
+
+  int locate(const IPoint& p) {
+    int t = last_;
+    if (!tris_[t].alive) t = firstAlive();
+    const std::size_t max_steps = tris_.size() + 8;
+    for (std::size_t step = 0; step < max_steps; ++step) {
+      const Tri& tri = tris_[t];
+      int next = -1;
+      for (int k = 0; k < 3; ++k) {
+        if (orient(pts_[tri.vert[(k + 1) % 3]], pts_[tri.vert[(k + 2) % 3]], p) < 0) {
+          next = tri.nbr[k];
+          break;
+        }
+      }
+      if (next < 0) return t;
+      t = next;
+    }
+    // Unreachable on a valid triangulation; a linear scan keeps the result correct regardless.
+    for (int k = 0; k < static_cast<int>(tris_.size()); ++k) {
+      const Tri& tri = tris_[k];
+      if (tri.alive && orient(pts_[tri.vert[0]], pts_[tri.vert[1]], p) >= 0 &&
+          orient(pts_[tri.vert[1]], pts_[tri.vert[2]], p) >= 0 &&
+          orient(pts_[tri.vert[2]], pts_[tri.vert[0]], p) >= 0) {
+        return k;
+      }
+    }
+    return t;
+  }
+
+  int firstAlive() const {
+    for (int k = 0; k < static_cast<int>(tris_.size()); ++k) {
+      if (tris_[k].alive) return k;
+    }
+    return 0;
+  }
+
+  std::vector<IPoint> pts_;
+  std::vector<Tri> tris_;
+  std::vector<int> bad_, stack_, tri_from_vertex_;
+  std::vector<Edge> boundary_;
+  int last_ = 0;
+};
+
+// Triangulates `points`; vertex_point[v] is the input index of vertex v (the lowest index among
+// repeated points, -1 for the enclosing triangle's vertices).
+Triangulation triangulate(const std::vector<Vec2>& points, std::vector<int>* vertex_point) {
+  Triangulation tri(points.size());
   double u_min = std::numeric_limits<double>::max(), v_min = u_min;
   double u_max = -u_min, v_max = -u_min;
   for (const Vec2& p : points) {
@@ -32,41 +209,49 @@ std::vector<std::array<int, 3>> delaunayTriangles(const std::vector<Vec2>& point
     v_min = std::min(v_min, p.y());
     v_max = std::max(v_max, p.y());
   }
-  // Work in coordinates relative to the bounding box to keep float precision.
-  const cv::Rect rect(0, 0, static_cast<int>(u_max - u_min) + 3,
-                      static_cast<int>(v_max - v_min) + 3);
-  IndexedSubdiv subdiv(rect);
-  std::vector<int> point_of_vertex;
-  point_of_vertex.reserve(points.size() + kFirstRealVertex);
-  // Insert in a serpentine order over 32 px strips: Subdiv2D locates each new point by walking
-  // from the previous one, so spatially close consecutive points keep the walks short.
+  const double extent = std::max({u_max - u_min, v_max - v_min, 1.0});
+  // 1/256 px, coarser for extents over 4096 px so that the enclosing triangle stays below 2^27.
+  const double scale = std::min(256.0, double(1 << 20) / extent);
+  const auto range = static_cast<std::int64_t>(std::ceil(extent * scale)) + 1;
+  const std::int64_t k = 16 * range + 16;
+  tri.init({-k, -k}, {3 * k, -k}, {-k, 3 * k});
+  // Insert along a serpentine over 32 px strips: consecutive points are neighbours, so each walk
+  // is a few steps.
   constexpr double kStripPx = 32.0;
   std::vector<std::pair<std::int64_t, int>> keyed(points.size());
+  std::vector<IPoint> ipts(points.size());
   for (int i = 0; i < static_cast<int>(points.size()); ++i) {
+    ipts[i] = {std::llround((points[i].x() - u_min) * scale),
+               std::llround((points[i].y() - v_min) * scale)};
     const auto strip = static_cast<std::int64_t>((points[i].y() - v_min) / kStripPx);
-    const auto u = static_cast<std::int64_t>(std::lround((points[i].x() - u_min) * 16.0));
+    const std::int64_t u = ipts[i].x;
     keyed[i] = {(strip << 32) + ((strip & 1) ? (std::int64_t{1} << 31) - u : u), i};
   }
   std::sort(keyed.begin(), keyed.end());
+  vertex_point->assign(points.size() + Triangulation::kNumSuper, -1);
   for (const auto& [key, i] : keyed) {
-    const cv::Point2f p(static_cast<float>(points[i].x() - u_min + 1.0),
-                        static_cast<float>(points[i].y() - v_min + 1.0));
-    const int vertex = subdiv.insert(p);
-    if (vertex >= static_cast<int>(point_of_vertex.size())) point_of_vertex.resize(vertex + 1, -1);
-    if (point_of_vertex[vertex] < 0 || i < point_of_vertex[vertex]) point_of_vertex[vertex] = i;
+    int& owner = (*vertex_point)[tri.insert(ipts[i])];
+    if (owner < 0 || i < owner) owner = i;
   }
-  // A face left of a primal directed edge e is a triangle when lnext^3(e) = e; each triangle is
-  // reported from the edge whose origin has the smallest vertex id.
-  const int num_edges = subdiv.numEdges();
-  for (int e = 0; e < num_edges; e += 2) {  // rotations 0 and 2: primal edges, both directions
-    if (subdiv.edgeFree(e)) continue;
-    const int e1 = subdiv.getEdge(e, cv::Subdiv2D::NEXT_AROUND_LEFT);
-    const int e2 = subdiv.getEdge(e1, cv::Subdiv2D::NEXT_AROUND_LEFT);
-    if (subdiv.getEdge(e2, cv::Subdiv2D::NEXT_AROUND_LEFT) != e) continue;
-    const int a = subdiv.edgeOrg(e), b = subdiv.edgeOrg(e1), c = subdiv.edgeOrg(e2);
-    if (a < kFirstRealVertex || b < kFirstRealVertex || c < kFirstRealVertex) continue;
-    if (a > b || a > c) continue;
-    triangles.push_back({point_of_vertex[a], point_of_vertex[b], point_of_vertex[c]});
+  return tri;
+}
+
+bool isReal(const Tri& t) {
+  return t.alive && t.vert[0] >= Triangulation::kNumSuper &&
+         t.vert[1] >= Triangulation::kNumSuper && t.vert[2] >= Triangulation::kNumSuper;
+}
+
+}  // namespace
+
+std::vector<std::array<int, 3>> delaunayTriangles(const std::vector<Vec2>& points) {
+  std::vector<std::array<int, 3>> triangles;
+  if (points.size() < 3) return triangles;
+  std::vector<int> vertex_point;
+  const Triangulation tri = triangulate(points, &vertex_point);
+  for (const Tri& t : tri.triangles()) {
+    if (!isReal(t)) continue;
+    triangles.push_back(
+        {vertex_point[t.vert[0]], vertex_point[t.vert[1]], vertex_point[t.vert[2]]});
   }
   return triangles;
 }
@@ -76,20 +261,35 @@ std::vector<std::uint8_t> delaunaySupportFilter(const std::vector<Vec2>& px_cur,
                                                 int min_support) {
   const int n = static_cast<int>(px_cur.size());
   std::vector<int> support(n, 0);
-  const double tol2 = flow_tol_px * flow_tol_px;
-  std::vector<std::pair<int, int>> edges;
-  for (const auto& t : delaunayTriangles(px_cur)) {
-    for (int k = 0; k < 3; ++k) {
-      const int i = t[k], j = t[(k + 1) % 3];
-      edges.emplace_back(std::min(i, j), std::max(i, j));
+  if (n >= 3) {
+    const double tol2 = flow_tol_px * flow_tol_px;
+    std::vector<int> vertex_point;
+    const Triangulation tri = triangulate(px_cur, &vertex_point);
+    const std::vector<Tri>& tris = tri.triangles();
+    // Flows and supports by vertex (insertion order, spatially coherent like the triangles).
+    const int num_vertices = static_cast<int>(vertex_point.size());
+    std::vector<Vec2> vertex_flow(num_vertices, Vec2::Zero());
+    std::vector<int> vertex_support(num_vertices, 0);
+    for (int v = Triangulation::kNumSuper; v < num_vertices; ++v) {
+      if (vertex_point[v] >= 0) vertex_flow[v] = flow[vertex_point[v]];
     }
-  }
-  std::sort(edges.begin(), edges.end());
-  edges.erase(std::unique(edges.begin(), edges.end()), edges.end());
-  for (const auto& [i, j] : edges) {
-    if ((flow[i] - flow[j]).squaredNorm() < tol2) {
-      ++support[i];
-      ++support[j];
+    std::vector<std::uint8_t> real(tris.size());
+    for (std::size_t t = 0; t < tris.size(); ++t) real[t] = isReal(tris[t]);
+    // Each edge of a real triangle once: from the lower-numbered of its two real triangles.
+    for (int t = 0; t < static_cast<int>(tris.size()); ++t) {
+      if (!real[t]) continue;
+      const Tri& tr = tris[t];
+      for (int k = 0; k < 3; ++k) {
+        const int other = tr.nbr[k];
+        if (other >= 0 && other < t && real[other]) continue;
+        const int a = tr.vert[k == 2 ? 0 : k + 1], b = tr.vert[k == 0 ? 2 : k - 1];
+        const int pass = (vertex_flow[a] - vertex_flow[b]).squaredNorm() < tol2;
+        vertex_support[a] += pass;
+        vertex_support[b] += pass;
+      }
+    }
+    for (int v = Triangulation::kNumSuper; v < num_vertices; ++v) {
+      if (vertex_point[v] >= 0) support[vertex_point[v]] = vertex_support[v];
     }
   }
   std::vector<std::uint8_t> keep(n);

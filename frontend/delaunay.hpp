@@ -1,5 +1,5 @@
-// Delaunay triangulation of image points (OpenCV's Subdiv2D, indices recovered from its quad-edge
-// structure) and libviso2's flow-consistency outlier filter built on it (DESIGN section 4).
+// Delaunay triangulation of image points (incremental Bowyer-Watson with exact integer predicates)
+// and libviso2's flow-consistency outlier filter built on it (DESIGN section 4).
 #pragma once
 
 #include <array>

@@ -61,6 +61,34 @@ float parabolaPeak(int l, int c, int r) {
 
 thread_local std::vector<kernels::RawFeature> t_raw;
 thread_local std::vector<std::uint8_t> t_half;
+thread_local std::vector<int> t_order;
+
+// Keeps the `cap` strongest |response| candidates of every (class, bin) group (ties: earlier in
+// raster order) by clearing the key of the others, and recounts the group offsets.
+void capPerBin(int cap, std::vector<int>* key, std::vector<int>* begin) {
+  std::vector<int>& order = t_order;
+  order.resize(static_cast<std::size_t>(begin->back()));
+  std::vector<int> next(begin->begin(), begin->end() - 1);
+  for (std::size_t k = 0; k < key->size(); ++k) {
+    if ((*key)[k] >= 0) order[next[(*key)[k]]++] = static_cast<int>(k);
+  }
+  const auto stronger = [](int a, int b) {
+    const int va = std::abs(t_raw[a].value), vb = std::abs(t_raw[b].value);
+    return va != vb ? va > vb : a < b;
+  };
+  const int groups = static_cast<int>(begin->size()) - 1;
+  for (int g = 0; g < groups; ++g) {
+    const int first = (*begin)[g], last = (*begin)[g + 1];
+    if (last - first <= cap) continue;
+    std::nth_element(order.begin() + first, order.begin() + first + cap - 1, order.begin() + last,
+                     stronger);
+    for (int i = first + cap; i < last; ++i) (*key)[order[i]] = -1;
+  }
+  // next[g] is now the end of group g.
+  for (int g = 0; g < groups; ++g) {
+    (*begin)[g + 1] = (*begin)[g] + std::min(cap, next[g] - (g == 0 ? 0 : next[g - 1]));
+  }
+}
 
 }  // namespace
 
@@ -85,7 +113,7 @@ void extractFeatures(const cv::Mat& grey, const DetectorOptions& options, const 
   const int margin = std::max(options.margin_px / out->scale,
                               kernels::kDescriptorRadius + kernels::kFilterBorder + 1);
   kernels::nonMaximumSuppression(f.blob.data(), f.corner.data(), f.width, f.height, options.nms_n,
-                                 options.nms_tau, margin, &t_raw);
+                                 options.nms_n_sparse, options.nms_tau, margin, &t_raw);
 
   out->bin_size = std::max(1, options.bin_size_px / out->scale);
   out->bins_u = std::max(1, (f.width + out->bin_size - 1) / out->bin_size);
@@ -111,6 +139,8 @@ void extractFeatures(const cv::Mat& grey, const DetectorOptions& options, const 
     ++begin[key[k] + 1];
   }
   for (int b = 0; b < kNumFeatureClasses * bins; ++b) begin[b + 1] += begin[b];
+  const int cap = options.bin_max_features;
+  if (cap > 0) capPerBin(cap, &key, &begin);
   const int n = begin.back();
   out->features.resize(n);
   out->us.resize(n);
@@ -128,10 +158,8 @@ void extractFeatures(const cv::Mat& grey, const DetectorOptions& options, const 
     feat.value = r.value;
     feat.cls = static_cast<FeatureClass>(r.cls);
     const bool is_blob = r.cls < 2;
-    const bool is_max = (r.cls & 1) != 0;
     const std::int16_t* response = is_blob ? f.blob.data() : f.corner.data();
-    feat.sparse =
-        kernels::isExtremum(response, f.width, f.height, r.u, r.v, options.nms_n_sparse, is_max);
+    feat.sparse = r.sparse != 0;
     const std::ptrdiff_t c = static_cast<std::ptrdiff_t>(r.v) * w + r.u;
     feat.du_sub = parabolaPeak(response[c - 1], response[c], response[c + 1]);
     feat.dv_sub = parabolaPeak(response[c - w], response[c], response[c + w]);

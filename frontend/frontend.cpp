@@ -24,6 +24,8 @@ FrontendOptions readFrontendOptions(const Config& cfg) {
   d.nms_tau = cfg.getIntInRange("frontend.nms_tau", d.nms_tau, 0, 10000);
   d.margin_px = cfg.getIntInRange("frontend.margin_px", d.margin_px, 0, 1000);
   d.bin_size_px = cfg.getIntInRange("frontend.bin_size_px", d.bin_size_px, 4, 10000);
+  d.bin_max_features =
+      cfg.getIntInRange("frontend.bin_max_features", d.bin_max_features, 0, 100000);
   d.half_resolution = cfg.get<bool>("frontend.half_resolution", d.half_resolution);
   MatcherOptions& m = o.matcher;
   m.search_radius_px = cfg.getIntInRange("frontend.search_radius_px", m.search_radius_px, 1, 10000);
@@ -128,11 +130,7 @@ FrontendResult Frontend::process(Timestamp t_ns, const cv::Mat& grey,
     if (predicted) predict(*R_cur_prev_prior, &prediction);
     matches = matcher_.match(prev_, cur_, predicted ? &prediction : nullptr, &result.match_stats);
     std::vector<int> age(matches.size());
-    const auto& prev_ids = tracker_.currentIds();
-    for (std::size_t k = 0; k < matches.size(); ++k) {
-      const Track* track = tracker_.find(prev_ids[matches[k].prev]);
-      age[k] = track ? track->age : 0;
-    }
+    for (std::size_t k = 0; k < matches.size(); ++k) age[k] = tracker_.current(matches[k].prev).age;
     used = bucketMatches(matches, age, options_.bucket_size_px, options_.bucket_max_matches);
   }
   result.num_matches_before_bucketing = static_cast<int>(matches.size());

@@ -20,7 +20,7 @@ namespace ovo::frontend {
 
 struct FrontendOptions {
   DetectorOptions detector;           // frontend.nms_n, nms_n_sparse, nms_tau, margin_px,
-                                      // bin_size_px, half_resolution
+                                      // bin_size_px, bin_max_features, half_resolution
   MatcherOptions matcher;             // frontend.search_radius_px, search_radius_predicted_px,
                                       // sparse_pass, flow_margin_px, max_cost_ratio, subpixel,
                                       // max_refine_steps, min_cost_contrast,

@@ -28,21 +28,28 @@ void blobCorner5x5(const std::uint8_t* img, int width, int height, int stride, s
 /// (width / 2) x (height / 2), dense.
 void halfResolution(const std::uint8_t* img, int width, int height, int stride, std::uint8_t* out);
 
-/// A non-maximum-suppression candidate: pixel, response, class (FeatureClass in features.hpp).
+/// A non-maximum-suppression result: pixel, response, class (FeatureClass in features.hpp).
 struct RawFeature {
   std::int16_t u;
   std::int16_t v;
   std::int16_t value;
   std::uint8_t cls;
+  std::uint8_t sparse;  // also the extremum of the (2 n_sparse + 1)^2 neighbourhood
 };
 
-/// Non-maximum suppression (libviso2 / Neubeck-Van Gool block scheme): in every (n+1)^2 block the
-/// maximum and minimum of the blob and corner responses are candidates; a candidate is kept when
-/// no pixel of its (2n+1)^2 neighbourhood is more extreme (ties go to the earlier pixel in raster
-/// order) and |value| >= tau. Only pixels at least `margin` from the edge are considered.
-/// Classes: 0 blob min, 1 blob max, 2 corner min, 3 corner max. Output in raster order of blocks.
+/// Non-maximum suppression (the result of libviso2's / Neubeck-Van Gool's block scheme): a pixel
+/// is kept when no pixel of its (2n+1)^2 neighbourhood (clipped to the image) is more extreme, ties
+/// going to the earlier pixel in raster order, and |value| >= tau. Only pixels at least `margin`
+/// from the edge are considered. Computed with separable sliding-window max / min filters, so the
+/// cost does not grow with the number of candidates. Classes: 0 blob min, 1 blob max, 2 corner min,
+/// 3 corner max. Output in raster order, classes ascending at one pixel.
 void nonMaximumSuppression(const std::int16_t* blob, const std::int16_t* corner, int width,
-                           int height, int n, int tau, int margin, std::vector<RawFeature>* out);
+                           int height, int n, int n_sparse, int tau, int margin,
+                           std::vector<RawFeature>* out);
+
+/// out = the max (is_max) or min of `in` over the (2 r + 1)^2 window clipped to the image.
+void extremumFilter(const std::int16_t* in, int width, int height, int r, bool is_max,
+                    std::int16_t* out);
 
 /// True when `value` at (u, v) is the extremum (max for is_max, else min) of its
 /// (2 radius + 1)^2 neighbourhood of `response` (same tie rule as above).

@@ -146,41 +146,126 @@ bool isExtremum(const std::int16_t* response, int width, int height, int u, int 
   return true;
 }
 
-void nonMaximumSuppression(const std::int16_t* blob, const std::int16_t* corner, int width,
-                           int height, int n, int tau, int margin, std::vector<RawFeature>* out) {
-  out->clear();
-  const int step = n + 1;
-  const int u_end = width - margin;  // exclusive
-  const int v_end = height - margin;
-  for (int bv = margin; bv < v_end; bv += step) {
-    const int bv_end = std::min(bv + step, v_end);
-    for (int bu = margin; bu < u_end; bu += step) {
-      const int bu_end = std::min(bu + step, u_end);
-      int blob_max = -32768, blob_min = 32767, corner_max = -32768, corner_min = 32767;
-      int bmax_i = 0, bmin_i = 0, cmax_i = 0, cmin_i = 0;
-      for (int v = bv; v < bv_end; ++v) {
-        const std::ptrdiff_t row = static_cast<std::ptrdiff_t>(v) * width;
-        for (int u = bu; u < bu_end; ++u) {
-          const int i = static_cast<int>(row + u);
-          const int b = blob[i], c = corner[i];
-          if (b > blob_max) blob_max = b, bmax_i = i;
-          if (b < blob_min) blob_min = b, bmin_i = i;
-          if (c > corner_max) corner_max = c, cmax_i = i;
-          if (c < corner_min) corner_min = c, cmin_i = i;
-        }
+namespace {
+
+template <bool kMax>
+inline std::int16_t pick(std::int16_t a, std::int16_t b) {
+  return kMax ? std::max(a, b) : std::min(a, b);
+}
+
+// Vertical then horizontal pass; interior columns in loops the compiler vectorises.
+template <bool kMax>
+void extremumFilterT(const std::int16_t* in, int width, int height, int r, std::int16_t* out) {
+  t_rows.resize(width);
+  std::int16_t* t = t_rows.a.data();
+  for (int v = 0; v < height; ++v) {
+    const int v0 = std::max(0, v - r), v1 = std::min(height - 1, v + r);
+    std::memcpy(t, in + static_cast<std::ptrdiff_t>(v0) * width, sizeof(std::int16_t) * width);
+    for (int v2 = v0 + 1; v2 <= v1; ++v2) {
+      const std::int16_t* row = in + static_cast<std::ptrdiff_t>(v2) * width;
+      for (int u = 0; u < width; ++u) t[u] = pick<kMax>(t[u], row[u]);
+    }
+    std::int16_t* o = out + static_cast<std::ptrdiff_t>(v) * width;
+    const int lo = std::min(r, width), hi = std::max(lo, width - r);  // interior [lo, hi)
+    for (int u = lo; u < hi; ++u) o[u] = t[u - r];
+    for (int k = -r + 1; k <= r; ++k) {
+      for (int u = lo; u < hi; ++u) o[u] = pick<kMax>(o[u], t[u + k]);
+    }
+    const auto clipped = [&](int u) {
+      std::int16_t m = t[std::max(0, u - r)];
+      for (int u2 = std::max(0, u - r) + 1; u2 <= std::min(width - 1, u + r); ++u2) {
+        m = pick<kMax>(m, t[u2]);
       }
-      const auto consider = [&](const std::int16_t* response, int index, int value, bool is_max,
-                                std::uint8_t cls) {
-        if (is_max ? value < tau : value > -tau) return;
-        const int u = index % width, v = index / width;
-        if (!isExtremum(response, width, height, u, v, n, is_max)) return;
+      o[u] = m;
+    };
+    for (int u = 0; u < lo; ++u) clipped(u);
+    for (int u = hi; u < width; ++u) clipped(u);
+  }
+}
+
+// True when a pixel before (u, v) in raster order within the (2 r + 1)^2 window has `value`.
+bool earlierEqual(const std::int16_t* response, int width, int u, int v, int r, int value) {
+  const int u0 = std::max(0, u - r), u1 = std::min(width - 1, u + r);
+  for (int v2 = std::max(0, v - r); v2 <= v; ++v2) {
+    const std::int16_t* row = response + static_cast<std::ptrdiff_t>(v2) * width;
+    const int end = v2 == v ? u - 1 : u1;
+    for (int u2 = u0; u2 <= end; ++u2) {
+      if (row[u2] == value) return true;
+    }
+  }
+  return false;
+}
+
+thread_local std::vector<std::int16_t> t_extrema[4];
+thread_local std::vector<std::uint8_t> t_flags;
+
+}  // namespace
+
+void extremumFilter(const std::int16_t* in, int width, int height, int r, bool is_max,
+                    std::int16_t* out) {
+  if (is_max) {
+    extremumFilterT<true>(in, width, height, r, out);
+  } else {
+    extremumFilterT<false>(in, width, height, r, out);
+  }
+}
+
+void nonMaximumSuppression(const std::int16_t* blob, const std::int16_t* corner, int width,
+                           int height, int n, int n_sparse, int tau, int margin,
+                           std::vector<RawFeature>* out) {
+  out->clear();
+  const std::size_t size = static_cast<std::size_t>(width) * height;
+  const std::int16_t* response[4] = {blob, blob, corner, corner};
+  const std::int16_t* extremum[4];
+  for (int c = 0; c < 4; ++c) {
+    t_extrema[c].resize(size);
+    extremumFilter(response[c], width, height, n, (c & 1) != 0, t_extrema[c].data());
+    extremum[c] = t_extrema[c].data();
+  }
+  // The (2 n_sparse + 1)^2 extremum is that of the (2n + 1)^2 windows centred at the offsets
+  // {-s, 0, s}^2 with s = n_sparse - n, when these windows cover it (n_sparse <= 3n + 1).
+  const int s = n_sparse - n;
+  const bool sparse_from_filter = s >= 0 && n_sparse <= 3 * n + 1;
+  const auto isSparse = [&](int c, int u, int v, int value) {
+    const bool is_max = (c & 1) != 0;
+    if (!sparse_from_filter) {
+      return isExtremum(response[c], width, height, u, v, n_sparse, is_max);
+    }
+    for (const int dv : {-s, 0, s}) {
+      const int v2 = std::clamp(v + dv, 0, height - 1);
+      for (const int du : {-s, 0, s}) {
+        const int u2 = std::clamp(u + du, 0, width - 1);
+        const int m = extremum[c][static_cast<std::ptrdiff_t>(v2) * width + u2];
+        if (is_max ? m > value : m < value) return false;
+      }
+    }
+    return !earlierEqual(response[c], width, u, v, n_sparse, value);
+  };
+  const int u_end = width - margin, v_end = height - margin;  // exclusive
+  if (u_end <= margin) return;
+  t_flags.resize(width);
+  std::uint8_t* flags = t_flags.data();
+  for (int v = margin; v < v_end; ++v) {
+    const std::ptrdiff_t row = static_cast<std::ptrdiff_t>(v) * width;
+    const std::int16_t *b = blob + row, *c = corner + row;
+    const std::int16_t *b_min = extremum[0] + row, *b_max = extremum[1] + row;
+    const std::int16_t *c_min = extremum[2] + row, *c_max = extremum[3] + row;
+    for (int u = margin; u < u_end; ++u) {
+      flags[u] = static_cast<std::uint8_t>(((b[u] == b_min[u]) & (b[u] <= -tau)) |
+                                           (((b[u] == b_max[u]) & (b[u] >= tau)) << 1) |
+                                           (((c[u] == c_min[u]) & (c[u] <= -tau)) << 2) |
+                                           (((c[u] == c_max[u]) & (c[u] >= tau)) << 3));
+    }
+    for (int u = margin; u < u_end; ++u) {
+      if (!flags[u]) continue;
+      for (int cls = 0; cls < 4; ++cls) {
+        if (!(flags[u] & (1 << cls))) continue;
+        const int value = response[cls][row + u];
+        if (earlierEqual(response[cls], width, u, v, n, value)) continue;
         out->push_back({static_cast<std::int16_t>(u), static_cast<std::int16_t>(v),
-                        static_cast<std::int16_t>(value), cls});
-      };
-      consider(blob, bmin_i, blob_min, false, 0);
-      consider(blob, bmax_i, blob_max, true, 1);
-      consider(corner, cmin_i, corner_min, false, 2);
-      consider(corner, cmax_i, corner_max, true, 3);
+                        static_cast<std::int16_t>(value), static_cast<std::uint8_t>(cls),
+                        static_cast<std::uint8_t>(isSparse(cls, u, v, value))});
+      }
     }
   }
 }
@@ -188,12 +273,29 @@ void nonMaximumSuppression(const std::int16_t* blob, const std::int16_t* corner,
 std::uint32_t sad32(const std::uint8_t* a, const std::uint8_t* b) { return sadInline(a, b); }
 
 std::uint32_t ssd32(const std::uint8_t* a, const std::uint8_t* b) {
-  std::uint32_t sum = 0;
-  for (int k = 0; k < kDescriptorBytes; ++k) {
-    const int d = static_cast<int>(a[k]) - static_cast<int>(b[k]);
-    sum += static_cast<std::uint32_t>(d * d);
+  // |a - b| as bytes, widened to 16 bit, squared and pairwise summed by madd.
+#if defined(__AVX2__)
+  const __m256i va = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(a));
+  const __m256i vb = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(b));
+  const __m256i d = _mm256_or_si256(_mm256_subs_epu8(va, vb), _mm256_subs_epu8(vb, va));
+  const __m256i zero = _mm256_setzero_si256();
+  const __m256i lo = _mm256_unpacklo_epi8(d, zero), hi = _mm256_unpackhi_epi8(d, zero);
+  const __m256i s = _mm256_add_epi32(_mm256_madd_epi16(lo, lo), _mm256_madd_epi16(hi, hi));
+  __m128i h = _mm_add_epi32(_mm256_castsi256_si128(s), _mm256_extracti128_si256(s, 1));
+#else
+  const __m128i zero = _mm_setzero_si128();
+  __m128i h = zero;
+  for (int k = 0; k < kDescriptorBytes; k += 16) {
+    const __m128i va = _mm_loadu_si128(reinterpret_cast<const __m128i*>(a + k));
+    const __m128i vb = _mm_loadu_si128(reinterpret_cast<const __m128i*>(b + k));
+    const __m128i d = _mm_or_si128(_mm_subs_epu8(va, vb), _mm_subs_epu8(vb, va));
+    const __m128i lo = _mm_unpacklo_epi8(d, zero), hi = _mm_unpackhi_epi8(d, zero);
+    h = _mm_add_epi32(h, _mm_add_epi32(_mm_madd_epi16(lo, lo), _mm_madd_epi16(hi, hi)));
   }
-  return sum;
+#endif
+  h = _mm_add_epi32(h, _mm_shuffle_epi32(h, _MM_SHUFFLE(1, 0, 3, 2)));
+  h = _mm_add_epi32(h, _mm_shuffle_epi32(h, _MM_SHUFFLE(2, 3, 0, 1)));
+  return static_cast<std::uint32_t>(_mm_cvtsi128_si32(h));
 }
 
 void searchBest(const std::uint8_t* query, const std::uint8_t* descs, const std::int16_t* us,

@@ -1,67 +1,77 @@
 #include "frontend/tracker.hpp"
 
+#include <algorithm>
+
 namespace ovo::frontend {
 
 void TrackManager::update(std::int64_t frame_index, Timestamp t_ns, const std::vector<Vec2>& px,
                           const std::vector<Vec3>& bearings_C,
                           const std::vector<int>& feature_class,
                           const std::vector<int>& prev_index) {
-  const std::vector<std::uint64_t> prev_ids = std::move(current_ids_);
-  std::vector<std::uint8_t> continued(prev_ids.size(), 0);
-  current_ids_.assign(px.size(), 0);
-  std::unordered_map<std::uint64_t, Track> next;
-  next.reserve(px.size());
-  for (std::size_t j = 0; j < px.size(); ++j) {
+  const std::size_t n = px.size();
+  std::vector<std::uint8_t> continued(tracks_.size(), 0);
+  std::vector<Track> next(n);
+  current_ids_.resize(n);
+  index_of_id_.clear();
+  // Continued tracks keep their (older) ids; new tracks get ids above every live one, in feature
+  // order, so sorting the continued entries sorts the whole index.
+  std::vector<int> fresh;
+  fresh.reserve(n);
+  for (std::size_t j = 0; j < n; ++j) {
     const TrackObservation obs{frame_index, t_ns, px[j], bearings_C[j]};
     const int p = prev_index[j];
-    if (p >= 0 && p < static_cast<int>(prev_ids.size()) && !continued[p]) {
+    if (p >= 0 && p < static_cast<int>(tracks_.size()) && !continued[p]) {
       continued[p] = 1;
-      auto node = active_.extract(prev_ids[p]);
-      Track& track = node.mapped();
+      Track& track = next[j];
+      track = std::move(tracks_[p]);
       ++track.age;
       if (options_.max_history > 0 &&
           static_cast<int>(track.history.size()) >= options_.max_history) {
         track.history.erase(track.history.begin());
       }
       track.history.push_back(obs);
-      current_ids_[j] = track.id;
-      next.insert(std::move(node));
+      index_of_id_.emplace_back(track.id, static_cast<int>(j));
       continue;
     }
-    Track track;
-    track.id = next_id_++;
+    Track& track = next[j];
     track.feature_class = feature_class[j];
     track.age = 1;
     track.history.push_back(obs);
-    current_ids_[j] = track.id;
-    next.emplace(track.id, std::move(track));
+    fresh.push_back(static_cast<int>(j));
   }
+  std::sort(index_of_id_.begin(), index_of_id_.end());
+  for (const int j : fresh) {
+    next[j].id = next_id_++;
+    index_of_id_.emplace_back(next[j].id, j);
+  }
+  for (std::size_t j = 0; j < n; ++j) current_ids_[j] = next[j].id;
   finished_.clear();
-  for (std::size_t p = 0; p < prev_ids.size(); ++p) {
-    if (continued[p]) continue;
-    auto it = active_.find(prev_ids[p]);
-    if (it != active_.end() && it->second.age >= 2) finished_.push_back(std::move(it->second));
+  for (std::size_t p = 0; p < tracks_.size(); ++p) {
+    if (!continued[p] && tracks_[p].age >= 2) finished_.push_back(std::move(tracks_[p]));
   }
-  active_ = std::move(next);
+  tracks_ = std::move(next);
 }
 
 std::vector<FeatureObservation> TrackManager::currentObservations() const {
   std::vector<FeatureObservation> out;
-  out.reserve(current_ids_.size());
-  for (const std::uint64_t id : current_ids_) {
-    const Track& t = active_.at(id);
-    out.push_back({id, t.last().px, t.last().bearing_C, t.age, t.feature_class});
+  out.reserve(tracks_.size());
+  for (const Track& t : tracks_) {
+    out.push_back({t.id, t.last().px, t.last().bearing_C, t.age, t.feature_class});
   }
   return out;
 }
 
 const Track* TrackManager::find(std::uint64_t id) const {
-  const auto it = active_.find(id);
-  return it == active_.end() ? nullptr : &it->second;
+  const auto it = std::lower_bound(
+      index_of_id_.begin(), index_of_id_.end(), id,
+      [](const std::pair<std::uint64_t, int>& entry, std::uint64_t x) { return entry.first < x; });
+  if (it == index_of_id_.end() || it->first != id) return nullptr;
+  return &tracks_[it->second];
 }
 
 void TrackManager::reset() {
-  active_.clear();
+  tracks_.clear();
+  index_of_id_.clear();
   current_ids_.clear();
   finished_.clear();
 }

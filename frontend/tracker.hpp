@@ -4,7 +4,7 @@
 #pragma once
 
 #include <cstdint>
-#include <unordered_map>
+#include <utility>
 #include <vector>
 
 #include "common/types.hpp"
@@ -58,9 +58,12 @@ class TrackManager {
   /// Track ids of the current features, in update() order.
   const std::vector<std::uint64_t>& currentIds() const { return current_ids_; }
   std::vector<FeatureObservation> currentObservations() const;
-  /// The live track with this id, or nullptr.
+  /// The live track with this id, or nullptr (binary search).
   const Track* find(std::uint64_t id) const;
-  const std::unordered_map<std::uint64_t, Track>& activeTracks() const { return active_; }
+  /// The live track of current feature j (update() order).
+  const Track& current(int j) const { return tracks_[j]; }
+  /// The live tracks, in update() order.
+  const std::vector<Track>& activeTracks() const { return tracks_; }
   /// Tracks (age >= 2) that ended at the latest update().
   const std::vector<Track>& finishedTracks() const { return finished_; }
   std::uint64_t nextId() const { return next_id_; }
@@ -68,7 +71,8 @@ class TrackManager {
 
  private:
   TrackerOptions options_;
-  std::unordered_map<std::uint64_t, Track> active_;
+  std::vector<Track> tracks_;                               // live tracks, one per current feature
+  std::vector<std::pair<std::uint64_t, int>> index_of_id_;  // (id, feature), sorted by id
   std::vector<std::uint64_t> current_ids_;
   std::vector<Track> finished_;
   std::uint64_t next_id_ = 0;

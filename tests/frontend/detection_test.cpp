@@ -132,5 +132,47 @@ TEST(Detection, MaskRemovesFeaturesOutsideIt) {
   }
 }
 
+// The filtered NMS must keep exactly the pixels the definition names, with the raster tie rule.
+TEST(Detection, NonMaximumSuppressionMatchesTheBruteForceDefinitionWithTies) {
+  cv::Mat img(120, 160, CV_8UC1);
+  cv::RNG rng(11);
+  rng.fill(img, cv::RNG::UNIFORM, 0, 256);
+  cv::GaussianBlur(img, img, cv::Size(), 1.2);
+  img = img / 16 * 16;  // coarse grey levels: many equal responses
+  FilterImages f;
+  computeFilters(img, &f);
+  for (const auto& [n, n_sparse] : {std::pair{3, 6}, std::pair{5, 10}, std::pair{2, 9}}) {
+    const int tau = 20, margin = 8;
+    std::vector<kernels::RawFeature> got;
+    kernels::nonMaximumSuppression(f.blob.data(), f.corner.data(), f.width, f.height, n, n_sparse,
+                                   tau, margin, &got);
+    std::vector<kernels::RawFeature> want;
+    for (int v = margin; v < f.height - margin; ++v) {
+      for (int u = margin; u < f.width - margin; ++u) {
+        for (int cls = 0; cls < 4; ++cls) {
+          const std::int16_t* r = cls < 2 ? f.blob.data() : f.corner.data();
+          const bool is_max = (cls & 1) != 0;
+          const int value = r[v * f.width + u];
+          if (is_max ? value < tau : value > -tau) continue;
+          if (!kernels::isExtremum(r, f.width, f.height, u, v, n, is_max)) continue;
+          const bool sparse = kernels::isExtremum(r, f.width, f.height, u, v, n_sparse, is_max);
+          want.push_back({static_cast<std::int16_t>(u), static_cast<std::int16_t>(v),
+                          static_cast<std::int16_t>(value), static_cast<std::uint8_t>(cls),
+                          static_cast<std::uint8_t>(sparse)});
+        }
+      }
+    }
+    ASSERT_GT(want.size(), 50u);
+    ASSERT_EQ(got.size(), want.size()) << "n " << n;
+    for (std::size_t k = 0; k < want.size(); ++k) {
+      EXPECT_EQ(got[k].u, want[k].u);
+      EXPECT_EQ(got[k].v, want[k].v);
+      EXPECT_EQ(got[k].cls, want[k].cls);
+      EXPECT_EQ(got[k].sparse, want[k].sparse)
+          << "n " << n << " at " << got[k].u << ", " << got[k].v;
+    }
+  }
+}
+
 }  // namespace
 }  // namespace ovo::frontend
