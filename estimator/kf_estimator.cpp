@@ -1,5 +1,8 @@
 #include "estimator/kf_estimator.hpp"
 
+#include <fmt/format.h>
+
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <deque>
@@ -15,10 +18,19 @@ namespace {
 using Status = frontend::RelativePoseResult::Status;
 
 struct KfEstimatorOptions {
-  double camera_height_m = 0.0;       // above the ground; 0 = the rig's (fallback scale)
-  double max_speed_mps = 40.0;        // scales implying more are rejected
-  double lidar_scale_hold_s = 0.3;    // a LiDAR scale is reused for frames without a scan this long
-  double scan_time_tolerance_s = 0.01;  // a scan belongs to a frame within this time
+  double camera_height_m = 0.0;         // above the ground; 0 = the rig's (fallback scale)
+  double max_speed_mps = 40.0;          // scales implying more are rejected
+  double lidar_scale_hold_s = 1.0;      // a LiDAR scale counts for frames this long after it, s
+  double scan_time_tolerance_s = 0.01;  // a scan belongs to a frame within this time, s
+  double lidar_baseline_s = 0.6;        // tracks are checked against the LiDAR over this span, s
+  double lidar_min_baseline_m = 0.1;    // shorter spans (turning in place, stops) are skipped, m
+  double scale_sigma0 = 0.3;            // prior on log(LiDAR/ground-plane scale) (camera height), 1
+  double scale_walk = 0.002;            // its random walk, 1/sqrt(s)
+  double scale_noise_floor = 0.05;      // smallest noise of one LiDAR measurement of it, 1
+  double scale_gate_chi2 = 16.0;        // LiDAR measurements with a larger innovation are dropped
+  double scale_deadband = 0.02;         // c is applied once |log c| exceeds this and 3 sigma, 1
+  bool refit_translation = false;       // true: translation direction re-fit to the fused rotation
+                                   // (measured worse than the RANSAC direction on the simulator)
   bool use_gyro = true;
   bool use_lidar = true;
   GroundPlaneOptions ground;
@@ -30,36 +42,72 @@ KfEstimatorOptions readKfEstimatorOptions(const Config& cfg, const SensorSetup& 
   KfEstimatorOptions o;
   o.camera_height_m = cfg.getInRange("vo.camera_height_m", o.camera_height_m, 0.0, 100.0);
   o.max_speed_mps = cfg.getInRange("vo.max_speed_mps", o.max_speed_mps, 0.01, 100.0);
-  o.lidar_scale_hold_s = cfg.getInRange("kf.lidar_scale_hold_s", o.lidar_scale_hold_s, 0.0, 10.0);
-  o.scan_time_tolerance_s = cfg.getInRange("kf.scan_time_tolerance_s", o.scan_time_tolerance_s, 0.0, 1.0);
+  o.lidar_scale_hold_s = cfg.getInRange("kf.lidar_scale_hold_s", o.lidar_scale_hold_s, 0.0, 100.0);
+  o.scan_time_tolerance_s =
+      cfg.getInRange("kf.scan_time_tolerance_s", o.scan_time_tolerance_s, 0.0, 1.0);
+  o.lidar_baseline_s = cfg.getInRange("kf.lidar_baseline_s", o.lidar_baseline_s, 0.01, 10.0);
+  o.lidar_min_baseline_m =
+      cfg.getInRange("kf.lidar_min_baseline_m", o.lidar_min_baseline_m, 0.0, 100.0);
+  o.scale_sigma0 = cfg.getInRange("kf.scale_sigma0", o.scale_sigma0, 1e-6, 10.0);
+  o.scale_walk = cfg.getInRange("kf.scale_walk", o.scale_walk, 0.0, 10.0);
+  o.scale_noise_floor = cfg.getInRange("kf.scale_noise_floor", o.scale_noise_floor, 1e-6, 10.0);
+  o.scale_gate_chi2 = cfg.getInRange("kf.scale_gate_chi2", o.scale_gate_chi2, 0.0, 1e9);
+  o.scale_deadband = cfg.getInRange("kf.scale_deadband", o.scale_deadband, 0.0, 1.0);
+  o.refit_translation = cfg.get<bool>("kf.refit_translation", o.refit_translation);
   o.use_gyro = cfg.get<bool>("kf.use_gyro", o.use_gyro);
   o.use_lidar = cfg.get<bool>("kf.use_lidar", o.use_lidar);
   o.ground = readGroundPlaneOptions(cfg);
   o.lidar = readLidarScaleOptions(cfg);
-  // The filter's gyro noise defaults to the rig's figures unless the config sets them.
-  Config with_rig = cfg;
-  if (!cfg.has("kf.gyro_noise_density"))
-    with_rig.applyOverride("kf.gyro_noise_density=" + std::to_string(setup.gyro_noise_density));
-  if (!cfg.has("kf.gyro_bias_random_walk"))
-    with_rig.applyOverride("kf.gyro_bias_random_walk=" + std::to_string(setup.gyro_bias_random_walk));
-  o.filter = readKfOptions(with_rig);
+  // The filter's gyro noise defaults to the rig's figures unless the config sets them (read from
+  // cfg itself so that every key counts as used).
+  const bool has_noise = cfg.has("kf.gyro_noise_density");
+  const bool has_walk = cfg.has("kf.gyro_bias_random_walk");
+  o.filter = readKfOptions(cfg);
+  if (!has_noise) o.filter.gyro_noise_density = std::max(setup.gyro_noise_density, 1e-9);
+  if (!has_walk) o.filter.gyro_bias_random_walk = std::max(setup.gyro_bias_random_walk, 0.0);
   return o;
 }
 
+// Metric scale of the kf baseline. With a camera height, each step is scaled by the ground plane
+// (libviso2's monocular scale, as in `vo`) times a correction c that the LiDAR estimates:
+//   scale_k = c g_k,   g_k = camera_height / ground-plane height of the unit-scale points
+// (or the last ground-plane speed times dt when the plane is not seen). A second, uncorrected chain
+// (the same rotations, steps g_k t_unit) is checked against the LiDAR along tracks over
+// lidar_baseline_s (estimateLidarScaleCorrection): its kappa measures c directly, and
+//   x = log c,  x <- x + w (w ~ N(0, scale_walk^2 dt)),  z = log kappa = x + v,
+//   v ~ N(0, max(floor^2, (spread / kappa)^2 / n))
+// is a scalar Kalman filter. A wrong camera height or a slanted ground (which bias g_k) are what c
+// absorbs. One LiDAR measurement is good to a few percent (few beams land on tracked features),
+// the ground plane to a fraction of one when the height is right, so c is applied only once it is
+// significant: |x| > scale_deadband and |x| > 3 sqrt(P) (then fully; until |x| falls below half
+// the deadband). Without a camera height the LiDAR scales each step directly (estimateLidarScale on
+// the unit-scale points).
 class KfEstimator final : public Estimator {
  public:
   KfEstimator(const SensorSetup& setup, const Config& config)
-      : setup_(setup), options_(readKfEstimatorOptions(config, setup)), chain_(setup.camera, config),
+      : setup_(setup),
+        options_(readKfEstimatorOptions(config, setup)),
+        chain_(setup.camera, config),
         filter_(options_.filter) {
     up_C_ = setup_.T_B_C.linear().transpose() * Vec3::UnitZ();
     T_C_L_ = cameraFromLidar(setup_.T_B_C, setup_.T_B_L);
-    height_m_ = options_.camera_height_m > 0 ? options_.camera_height_m : setup_.camera_height_m.value_or(0.0);
+    height_m_ = options_.camera_height_m > 0 ? options_.camera_height_m
+                                             : setup_.camera_height_m.value_or(0.0);
     use_gyro_ = options_.use_gyro && setup_.has_gyro;
     use_lidar_ = options_.use_lidar && setup_.has_lidar;
-    if (!use_gyro_) stats_.notes.push_back("kf: no gyro: the filter follows the VO rotation alone");
+    log_c_var_ = options_.scale_sigma0 * options_.scale_sigma0;
+    if (!use_gyro_)
+      stats_.notes.push_back(
+          setup_.has_gyro
+              ? "kf: gyro switched off (kf.use_gyro): the filter follows the VO rotation alone"
+              : "kf: no gyro: the filter follows the VO rotation alone");
     if (!use_lidar_)
-      stats_.notes.push_back(height_m_ > 0 ? "kf: no LiDAR: ground-plane scale from the camera height"
-                                           : "kf: no LiDAR and no camera height: unit scale per frame");
+      stats_.notes.push_back(height_m_ > 0
+                                 ? "kf: no LiDAR: ground-plane scale from the camera height"
+                                 : "kf: no LiDAR and no camera height: unit scale per frame");
+    else if (height_m_ <= 0)
+      stats_.notes.push_back(
+          "kf: no camera height: LiDAR scale per frame, the last speed between scans");
   }
 
   std::string name() const override { return "kf"; }
@@ -88,21 +136,25 @@ class KfEstimator final : public Estimator {
     // Gyro prediction of the camera rotation since the previous frame, for the matcher.
     std::optional<Mat3> prior;
     if (use_gyro_ && !trajectory_.empty()) {
-      const Mat3 R_Bprev_Bcur = trajectory_.back().T_W_B.linear().transpose() * predictedRotation(t_ns);
+      const Mat3 R_Bprev_Bcur =
+          trajectory_.back().T_W_B.linear().transpose() * predictedRotation(t_ns);
       prior = setup_.T_B_C.linear().transpose() * R_Bprev_Bcur.transpose() * setup_.T_B_C.linear();
     }
     const ChainStep s = chain_.step(t_ns, grey, prior);
     f.frontend_ms = s.frontend_ms;
+    SE3 T_W_B_base = SE3::Identity();  // the uncorrected (ground-plane scale) chain
 
     if (s.first_frame || trajectory_.empty()) {
       filter_.markFrame(t_ns);
       f.T_W_B = SE3::Identity();
       f.T_W_B.linear() = filter_.R_W_B();
+      T_W_B_base = f.T_W_B;
       f.tracked = true;
     } else {
       // The chain measures from its reference frame (older than the previous one while the
       // parallax is small); the filter's clone stays at that reference until the chain moves on.
-      const SE3 T_ref = poseAt(s.ref_t_ns);
+      const SE3 T_ref = poseAt(trajectory_, s.ref_t_ns);
+      const SE3 T_ref_base = poseAt(base_trajectory_, s.ref_t_ns);
       const double dt = toSeconds(t_ns - s.ref_t_ns);
       const bool vo_ok = s.status == Status::kOk || s.status == Status::kLowParallax;
       const Mat3& R_B_C = setup_.T_B_C.linear();
@@ -118,44 +170,61 @@ class KfEstimator final : public Estimator {
       // VO rotation from the reference stands in for it there.
       Mat3 R_W_Bcur = filter_.R_W_B();
       if (!use_gyro_ && vo_ok && !s.reference_advances) R_W_Bcur = T_ref.linear() * R_Bref_Bcur_vo;
+      R_W_Bcur = so3::orthonormalize(R_W_Bcur);
       const Mat3 R_Bref_Bcur = T_ref.linear().transpose() * R_W_Bcur;
       const Mat3 R_cur_ref = R_B_C.transpose() * R_Bref_Bcur.transpose() * R_B_C;
 
-      Vec3 t_cur_ref = Vec3::Zero();
       f.tracked = vo_ok || use_gyro_;
-      SE3 T_base = T_ref;
       if (s.status == Status::kOk) {
         // Translation direction re-estimated for the fused rotation (the VO one as fallback).
         const Vec3 t_unit =
-            translationGivenRotation(R_cur_ref, s.bearings_prev, s.bearings_cur).value_or(s.t_cur_prev_unit);
-        const double scale = metricScale(t_ns, dt, R_cur_ref, t_unit, s, &f);
-        t_cur_ref = scale * t_unit;
-      } else if (!vo_ok) {
+            options_.refit_translation
+                ? translationGivenRotation(R_cur_ref, s.bearings_prev, s.bearings_cur)
+                      .value_or(s.t_cur_prev_unit)
+                : s.t_cur_prev_unit;
+        const auto [scale, base_scale] = metricScale(t_ns, dt, R_cur_ref, t_unit, s, &f);
+        f.T_W_B = chainPose(T_ref, setup_.T_B_C, R_cur_ref, scale * t_unit);
+        T_W_B_base = chainPose(T_ref_base, setup_.T_B_C, R_cur_ref, base_scale * t_unit);
+      } else if (vo_ok) {
+        f.status = "low_parallax";
+        f.T_W_B = chainPose(T_ref, setup_.T_B_C, R_cur_ref, Vec3::Zero());
+        T_W_B_base = chainPose(T_ref_base, setup_.T_B_C, R_cur_ref, Vec3::Zero());
+      } else {
         f.status = std::string(frontend::toString(s.status));
         ++stats_.tracking_losses;
-        T_base = trajectory_.back().T_W_B;  // lost: the position holds, the gyro turns it
-      } else {
-        f.status = "low_parallax";
+        f.T_W_B = trajectory_.back().T_W_B;  // lost: the position holds, the gyro turns it
+        T_W_B_base = base_trajectory_.back().T_W_B;
       }
-      if (!vo_ok) {
-        f.T_W_B = T_base;
-      } else {
-        f.T_W_B = chainPose(T_base, setup_.T_B_C, R_cur_ref, t_cur_ref);
-      }
-      f.T_W_B.linear() = so3::orthonormalize(R_W_Bcur);
+      f.T_W_B.linear() = R_W_Bcur;
+      T_W_B_base.linear() = R_W_Bcur;
     }
-    if (!allFinite(f.T_W_B)) {
+    if (!allFinite(f.T_W_B) || !allFinite(T_W_B_base)) {
       f.T_W_B = trajectory_.empty() ? SE3::Identity() : trajectory_.back().T_W_B;
+      T_W_B_base = base_trajectory_.empty() ? SE3::Identity() : base_trajectory_.back().T_W_B;
       f.tracked = false;
       f.status = "non_finite";
     }
     f.gyro_bias = filter_.gyroBias();
     if (f.tracked) ++stats_.frames_tracked;
     trajectory_.push_back({t_ns, f.T_W_B});
+    base_trajectory_.push_back({t_ns, T_W_B_base});
     bias_history_.emplace_back(t_ns, filter_.gyroBias());
+    if (s.status == Status::kOk && use_lidar_ && height_m_ > 0) updateScaleCorrection(t_ns, s);
+    // Poses older than the LiDAR baseline are no longer looked up.
+    while (!base_trajectory_.empty() &&
+           toSeconds(t_ns - base_trajectory_.front().t_ns) > 2.0 * options_.lidar_baseline_s + 1.0)
+      base_trajectory_.pop_front();
     f.estimator_ms = std::max(
-        0.0, std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count() - s.frontend_ms);
+        0.0,
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count() -
+            s.frontend_ms);
     return f;
+  }
+
+  void finish() override {
+    if (use_lidar_ && stats_.lidar_scale_frames == 0)
+      stats_.notes.push_back(
+          "kf: the LiDAR never associated with tracked features: ground-plane scale only");
   }
 
   Trajectory trajectory() const override { return trajectory_; }
@@ -163,17 +232,25 @@ class KfEstimator final : public Estimator {
   std::vector<std::pair<Timestamp, Vec3>> biasHistory() const override { return bias_history_; }
 
  private:
-  SE3 poseAt(Timestamp t_ns) const {
-    for (auto it = trajectory_.rbegin(); it != trajectory_.rend(); ++it)
+  template <typename Poses>
+  static SE3 poseAt(const Poses& poses, Timestamp t_ns) {
+    for (auto it = poses.rbegin(); it != poses.rend(); ++it)
       if (it->t_ns == t_ns) return it->T_W_B;
-    return trajectory_.back().T_W_B;
+    return poses.back().T_W_B;
+  }
+  std::optional<SE3> basePoseAt(Timestamp t_ns) const {
+    auto it = std::lower_bound(base_trajectory_.begin(), base_trajectory_.end(), t_ns,
+                               [](const StampedPose& p, Timestamp t) { return p.t_ns < t; });
+    if (it == base_trajectory_.end() || it->t_ns != t_ns) return std::nullopt;
+    return it->T_W_B;
   }
 
   // Propagates the filter with every gyro sample up to t (the rest wait for later frames).
   void feedGyroUntil(Timestamp t_ns) {
     while (!pending_gyro_.empty() && pending_gyro_.front().t_ns <= t_ns) {
       const ImuSample& g = pending_gyro_.front();
-      if (last_gyro_t_ && toSeconds(g.t_ns - *last_gyro_t_) > options_.filter.max_gyro_gap_s) ++stats_.gyro_gaps;
+      if (last_gyro_t_ && toSeconds(g.t_ns - *last_gyro_t_) > options_.filter.max_gyro_gap_s)
+        ++stats_.gyro_gaps;
       last_gyro_t_ = g.t_ns;
       filter_.propagate(g);
       pending_gyro_.pop_front();
@@ -187,57 +264,123 @@ class KfEstimator final : public Estimator {
     return copy.R_W_B();
   }
 
-  double metricScale(Timestamp t_ns, double dt, const Mat3& R_cur_prev, const Vec3& t_unit, const ChainStep& s,
-                     FrameEstimate* f) {
+  // {scale of this step, scale of the uncorrected chain}; see the model above the class.
+  std::pair<double, double> metricScale(Timestamp t_ns, double dt, const Mat3& R_cur_ref,
+                                        const Vec3& t_unit, const ChainStep& s, FrameEstimate* f) {
     const double max_step = options_.max_speed_mps * std::max(dt, 1e-3);
     std::vector<Vec3> pts;
     std::vector<std::uint8_t> valid;
-    triangulateUnit(R_cur_prev, t_unit, s.bearings_prev, s.bearings_cur, &pts, &valid);
-    if (use_lidar_) {
-      if (const LidarScan* scan = scanAt(t_ns)) {
-        std::vector<ScaleFeature> features;
-        for (std::size_t i = 0; i < pts.size(); ++i)
-          if (valid[i] && i < s.px_cur.size()) features.push_back({pixelOf(s, i), pts[i]});
-        const auto est = estimateLidarScale(*scan, T_C_L_, setup_.camera, features, options_.lidar);
-        if (est && est->scale > 0 && est->scale <= max_step) {
-          ++stats_.lidar_scale_frames;
-          f->scale_source_lidar = 1.0;
-          last_lidar_t_ = t_ns;
-          return setSpeed(est->scale, dt);
-        }
-      }
-      // Frames between scans: the speed of the last LiDAR-scaled step carries on for a while.
-      if (last_lidar_t_ && toSeconds(t_ns - *last_lidar_t_) <= options_.lidar_scale_hold_s) {
+    triangulateUnit(R_cur_ref, t_unit, s.bearings_prev, s.bearings_cur, &pts, &valid);
+    if (height_m_ <= 0) {
+      const double scale = use_lidar_ ? directLidarScale(t_ns, dt, pts, valid, s, f) : 1.0;
+      return {scale, scale};
+    }
+    double g = ground_speed_mps_ * dt;  // constant speed through steps without a ground fit
+    std::vector<Vec3> kept;
+    for (std::size_t i = 0; i < pts.size(); ++i)
+      if (valid[i]) kept.push_back(pts[i]);
+    ChainStep tmp;
+    tmp.status = Status::kOk;
+    tmp.points_cur_unit = std::move(kept);
+    if (const auto fit = groundPlaneScale(tmp, up_C_, height_m_, options_.ground);
+        fit && *fit <= max_step) {
+      g = *fit;
+      if (dt > 0) ground_speed_mps_ = g / dt;
+    }
+    const bool lidar_recent =
+        last_lidar_t_ && toSeconds(t_ns - *last_lidar_t_) <= options_.lidar_scale_hold_s;
+    if (lidar_recent) {
+      ++stats_.lidar_scale_frames;
+      f->scale_source_lidar = 1.0;
+    } else {
+      ++stats_.ground_scale_frames;
+    }
+    return {(scale_applied_ ? std::exp(log_c_) : 1.0) * g, g};
+  }
+
+  // Without a camera height: scale = estimateLidarScale on this step's unit-scale points; the last
+  // LiDAR speed between scans.
+  double directLidarScale(Timestamp t_ns, double dt, const std::vector<Vec3>& pts,
+                          const std::vector<std::uint8_t>& valid, const ChainStep& s,
+                          FrameEstimate* f) {
+    const double max_step = options_.max_speed_mps * std::max(dt, 1e-3);
+    if (const LidarScan* scan = scanAt(t_ns)) {
+      std::vector<ScaleFeature> features;
+      for (std::size_t i = 0; i < pts.size(); ++i)
+        if (valid[i] && i < s.px_all_cur.size()) features.push_back({s.px_all_cur[i], pts[i]});
+      const auto est = estimateLidarScale(*scan, T_C_L_, setup_.camera, features, options_.lidar);
+      if (est && est->scale > 0 && est->scale <= max_step) {
         ++stats_.lidar_scale_frames;
         f->scale_source_lidar = 1.0;
-        return last_speed_mps_ * dt;
+        last_lidar_t_ = t_ns;
+        if (dt > 0) lidar_speed_mps_ = est->scale / dt;
+        return est->scale;
       }
     }
-    if (height_m_ > 0) {
-      std::vector<Vec3> kept;
-      for (std::size_t i = 0; i < pts.size(); ++i)
-        if (valid[i]) kept.push_back(pts[i]);
-      ChainStep tmp;
-      tmp.status = Status::kOk;
-      tmp.points_cur_unit = std::move(kept);
-      const auto g = groundPlaneScale(tmp, up_C_, height_m_, options_.ground);
-      if (g && *g <= max_step) {
-        ++stats_.ground_scale_frames;
-        return setSpeed(*g, dt);
-      }
-    } else if (!use_lidar_) {
-      return 1.0;
+    if (last_lidar_t_ && toSeconds(t_ns - *last_lidar_t_) <= options_.lidar_scale_hold_s) {
+      ++stats_.lidar_scale_frames;
+      f->scale_source_lidar = 1.0;
     }
-    return last_speed_mps_ * dt;  // constant speed through steps without a scale
+    return lidar_speed_mps_ * dt;
   }
 
-  double setSpeed(double scale, double dt) {
-    if (dt > 0) last_speed_mps_ = scale / dt;
-    return scale;
+  // The LiDAR's measurement of c = exp(x) on the uncorrected chain, and the scalar KF update.
+  void updateScaleCorrection(Timestamp t_ns, const ChainStep& s) {
+    const LidarScan* scan = scanAt(t_ns);
+    if (!scan) return;
+    const SE3 T_W_Ccur = base_trajectory_.back().T_W_B * setup_.T_B_C;
+    const frontend::TrackManager& tracks = chain_.frontend().tracks();
+    const Timestamp max_span_ns = fromSeconds(options_.lidar_baseline_s);
+    std::vector<TrackScaleFeature> features;
+    // This step's inliers (tracks that agree with the epipolar geometry since the reference).
+    for (std::size_t i = 0; i < s.track_ids.size() && i < s.px_all_cur.size(); ++i) {
+      const frontend::Track* track = tracks.find(s.track_ids[i]);
+      if (!track) continue;
+      // The oldest observation within the baseline span whose pose is known.
+      for (const auto& obs : track->history) {
+        if (t_ns - obs.t_ns > max_span_ns || obs.t_ns >= t_ns) continue;
+        const auto T_W_Bold = basePoseAt(obs.t_ns);
+        if (!T_W_Bold) continue;
+        const SE3 T_Cold_Ccur = (*T_W_Bold * setup_.T_B_C).inverse() * T_W_Ccur;
+        if (T_Cold_Ccur.translation().norm() >= options_.lidar_min_baseline_m)
+          features.push_back({s.px_all_cur[i], s.bearings_cur[i], obs.bearing_C,
+                              T_Cold_Ccur.linear(), T_Cold_Ccur.translation()});
+        break;
+      }
+    }
+    const Vec3 up_C = T_W_Ccur.linear().transpose() * Vec3::UnitZ();
+    const auto kappa = estimateLidarScaleCorrection(*scan, T_C_L_, setup_.camera, features, up_C,
+                                                    height_m_, options_.lidar);
+    if (!kappa || !(kappa->scale > 0)) return;
+    if (last_scale_update_t_)
+      log_c_var_ +=
+          options_.scale_walk * options_.scale_walk * toSeconds(t_ns - *last_scale_update_t_);
+    last_scale_update_t_ = t_ns;
+    const double z = std::log(kappa->scale);
+    const double rel_spread = kappa->spread / kappa->scale;
+    const double r = std::max(options_.scale_noise_floor * options_.scale_noise_floor,
+                              rel_spread * rel_spread / std::max(kappa->associations, 1));
+    const double innovation = z - log_c_;
+    const double S = log_c_var_ + r;
+    if (options_.scale_gate_chi2 > 0 && innovation * innovation / S > options_.scale_gate_chi2)
+      return;
+    const double K = log_c_var_ / S;
+    log_c_ += K * innovation;
+    log_c_var_ *= 1.0 - K;
+    last_lidar_t_ = t_ns;
+    const double x = std::abs(log_c_);
+    if (!scale_applied_ && x > options_.scale_deadband && x > 3.0 * std::sqrt(log_c_var_)) {
+      scale_applied_ = true;
+      if (!said_applied_) {
+        stats_.notes.push_back(fmt::format(
+            "kf: the LiDAR corrects the ground-plane scale by {:+.1f} % (from {:.1f} s on)",
+            100.0 * (std::exp(log_c_) - 1.0), toSeconds(t_ns - trajectory_.front().t_ns)));
+        said_applied_ = true;
+      }
+    } else if (scale_applied_ && x < 0.5 * options_.scale_deadband) {
+      scale_applied_ = false;
+    }
   }
-
-  // Pixel of inlier pair i in the current image (before the triangulation filter of the chain).
-  static Vec2 pixelOf(const ChainStep& s, std::size_t i) { return s.px_all_cur[i]; }
 
   const LidarScan* scanAt(Timestamp t_ns) const {
     for (auto it = scans_.rbegin(); it != scans_.rend(); ++it)
@@ -256,9 +399,16 @@ class KfEstimator final : public Estimator {
   std::deque<ImuSample> pending_gyro_;
   std::optional<Timestamp> last_gyro_t_;
   std::deque<LidarScan> scans_;
-  double last_speed_mps_ = 0.0;
+  double ground_speed_mps_ = 0.0;  // last ground-plane speed (uncorrected)
+  double lidar_speed_mps_ = 0.0;   // last direct LiDAR speed (no camera height)
+  double log_c_ = 0.0;             // x = log(LiDAR / ground-plane scale)
+  double log_c_var_ = 0.0;
+  bool scale_applied_ = false;  // c significant (see the model above the class)
+  bool said_applied_ = false;
+  std::optional<Timestamp> last_scale_update_t_;
   std::optional<Timestamp> last_lidar_t_;
   Trajectory trajectory_;
+  std::deque<StampedPose> base_trajectory_;
   std::vector<std::pair<Timestamp, Vec3>> bias_history_;
   EstimatorStats stats_;
 };

@@ -41,8 +41,9 @@ struct KfOptions {
   double gyro_bias_random_walk = 2.0e-5;  // sigma_bw, rad/s^2/sqrt(Hz)
   double init_rotation_sigma_rad = 0.01;  // prior on R_W_B at initialise(), rad
   double init_bias_sigma_radps = 0.03;    // prior on b_g at initialise(), rad/s
-  double vo_sigma0_rad = 1.0e-3;          // sigma_0: VO rotation noise at zero rotation, rad
-  double vo_sigma_per_rad = 0.05;        // k_turn: extra VO noise per rad turned per frame, rad/rad
+  double vo_sigma0_rad = 3.0e-4;   // sigma_0: VO rotation noise at zero rotation, rad (a few times
+                                   // the chain's median frame-to-frame error on the simulator)
+  double vo_sigma_per_rad = 0.05;  // k_turn: extra VO noise per rad turned per frame, rad/rad
   double bias_freeze_rate_radps = 0.35;  // w_freeze: bias frozen above this turning rate, rad/s
   double vo_gate_chi2 = 25.0;            // reject VO updates with r^T S^-1 r above this; 0: off
   double max_gyro_gap_s = 0.05;          // longer without gyro: predict without it, s

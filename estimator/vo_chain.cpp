@@ -13,7 +13,8 @@ using Status = frontend::RelativePoseResult::Status;
 
 VoChainOptions readVoChainOptions(const Config& cfg) {
   VoChainOptions o;
-  o.max_reference_frames = cfg.getIntInRange("vo.max_reference_frames", o.max_reference_frames, 1, 1000);
+  o.max_reference_frames =
+      cfg.getIntInRange("vo.max_reference_frames", o.max_reference_frames, 1, 1000);
   o.min_pairs = cfg.getIntInRange("vo.min_pairs", o.min_pairs, 8, 100000);
   o.bucket_px = cfg.getIntInRange("vo.bucket_px", o.bucket_px, 1, 10000);
   o.bucket_max = cfg.getIntInRange("vo.bucket_max", o.bucket_max, 0, 100000);
@@ -25,7 +26,8 @@ VoChain::VoChain(const camera::Camera& camera, const Config& config)
       frontend_(camera, frontend::readFrontendOptions(config)),
       relative_pose_(frontend::readRelativePoseOptions(config)) {}
 
-ChainStep VoChain::step(Timestamp t_ns, const cv::Mat& grey, const std::optional<Mat3>& R_cur_prev_prior) {
+ChainStep VoChain::step(Timestamp t_ns, const cv::Mat& grey,
+                        const std::optional<Mat3>& R_cur_prev_prior) {
   const frontend::FrontendResult r = frontend_.process(t_ns, grey, R_cur_prev_prior);
   ChainStep s;
   s.frontend_ms = r.timings.total_ms;
@@ -60,23 +62,27 @@ ChainStep VoChain::step(Timestamp t_ns, const cv::Mat& grey, const std::optional
   }
   // Thin to a spatially even subset (oldest tracks first, then lowest id: deterministic).
   if (options_.bucket_max > 0) {
-    std::sort(pairs.begin(), pairs.end(),
-              [](const Pair& a, const Pair& b) { return a.age != b.age ? a.age > b.age : a.id < b.id; });
+    std::sort(pairs.begin(), pairs.end(), [](const Pair& a, const Pair& b) {
+      return a.age != b.age ? a.age > b.age : a.id < b.id;
+    });
     std::unordered_map<std::int64_t, int> per_cell;
     std::vector<Pair> kept;
     for (const auto& p : pairs) {
-      const std::int64_t cell = (static_cast<std::int64_t>(p.px.y()) / options_.bucket_px) * 100000 +
-                                static_cast<std::int64_t>(p.px.x()) / options_.bucket_px;
+      const std::int64_t cell =
+          (static_cast<std::int64_t>(p.px.y()) / options_.bucket_px) * 100000 +
+          static_cast<std::int64_t>(p.px.x()) / options_.bucket_px;
       if (per_cell[cell]++ < options_.bucket_max) kept.push_back(p);
     }
     pairs = std::move(kept);
   }
   std::vector<Vec3> b_ref, b_cur;
   std::vector<Vec2> px_cur;
+  std::vector<std::uint64_t> ids;
   for (const auto& p : pairs) {
     b_ref.push_back(p.b_ref);
     b_cur.push_back(p.b_cur);
     px_cur.push_back(p.px);
+    ids.push_back(p.id);
   }
   s.matches = static_cast<int>(b_ref.size());
   const std::int64_t frames_since_ref = r.frame_index - ref_frame_;
@@ -90,7 +96,8 @@ ChainStep VoChain::step(Timestamp t_ns, const cv::Mat& grey, const std::optional
   s.R_cur_prev = pose.R_cur_prev;
   s.t_cur_prev_unit = pose.t_cur_prev;
   // Keep the reference while the parallax is small, up to max_reference_frames.
-  s.reference_advances = !(s.status == Status::kLowParallax && frames_since_ref < options_.max_reference_frames);
+  s.reference_advances =
+      !(s.status == Status::kLowParallax && frames_since_ref < options_.max_reference_frames);
   if (s.reference_advances) {
     ref_frame_ = r.frame_index;
     ref_t_ns_ = t_ns;
@@ -101,6 +108,7 @@ ChainStep VoChain::step(Timestamp t_ns, const cv::Mat& grey, const std::optional
     s.bearings_prev.push_back(b_ref[i]);
     s.bearings_cur.push_back(b_cur[i]);
     s.px_cur.push_back(px_cur[i]);
+    s.track_ids.push_back(ids[i]);
   }
   s.px_all_cur = s.px_cur;
   if (s.status == Status::kOk) {
@@ -120,7 +128,8 @@ ChainStep VoChain::step(Timestamp t_ns, const cv::Mat& grey, const std::optional
   return s;
 }
 
-std::optional<Vec3> translationGivenRotation(const Mat3& R_cur_prev, const std::vector<Vec3>& bearings_prev,
+std::optional<Vec3> translationGivenRotation(const Mat3& R_cur_prev,
+                                             const std::vector<Vec3>& bearings_prev,
                                              const std::vector<Vec3>& bearings_cur) {
   const std::size_t n = bearings_prev.size();
   if (n < 3 || bearings_cur.size() != n) return std::nullopt;
@@ -133,7 +142,8 @@ std::optional<Vec3> translationGivenRotation(const Mat3& R_cur_prev, const std::
   Eigen::SelfAdjointEigenSolver<Mat3> es(A);
   if (es.info() != Eigen::Success) return std::nullopt;
   // Well-posed when the smallest eigenvalue is clearly separated from the next one.
-  if (!(es.eigenvalues()(1) > 1e-12) || es.eigenvalues()(0) > 0.5 * es.eigenvalues()(1)) return std::nullopt;
+  if (!(es.eigenvalues()(1) > 1e-12) || es.eigenvalues()(0) > 0.5 * es.eigenvalues()(1))
+    return std::nullopt;
   Vec3 t = es.eigenvectors().col(0).normalized();
   // Sign: the majority of points in front along both bearings.
   int front = 0, back = 0;
@@ -148,13 +158,14 @@ std::optional<Vec3> translationGivenRotation(const Mat3& R_cur_prev, const std::
   return t;
 }
 
-void triangulateUnit(const Mat3& R_cur_prev, const Vec3& t_unit, const std::vector<Vec3>& bearings_prev,
-                     const std::vector<Vec3>& bearings_cur, std::vector<Vec3>* points_cur,
-                     std::vector<std::uint8_t>* valid) {
+void triangulateUnit(const Mat3& R_cur_prev, const Vec3& t_unit,
+                     const std::vector<Vec3>& bearings_prev, const std::vector<Vec3>& bearings_cur,
+                     std::vector<Vec3>* points_cur, std::vector<std::uint8_t>* valid) {
   points_cur->assign(bearings_prev.size(), Vec3::Zero());
   valid->assign(bearings_prev.size(), 0);
   for (std::size_t i = 0; i < bearings_prev.size(); ++i) {
-    const auto p = frontend::triangulateMidpoint(R_cur_prev, t_unit, bearings_prev[i], bearings_cur[i], 1e-4);
+    const auto p =
+        frontend::triangulateMidpoint(R_cur_prev, t_unit, bearings_prev[i], bearings_cur[i], 1e-4);
     if (!p || !(p->depth_prev > 0) || !(p->depth_cur > 0)) continue;
     // Too far to be informative at unit baseline (parallax below ~0.5 deg).
     if (p->depth_cur > 120.0) continue;
@@ -163,8 +174,8 @@ void triangulateUnit(const Mat3& R_cur_prev, const Vec3& t_unit, const std::vect
   }
 }
 
-std::optional<double> groundPlaneScale(const ChainStep& step, const Vec3& up_C, double camera_height_m,
-                                       const GroundPlaneOptions& options) {
+std::optional<double> groundPlaneScale(const ChainStep& step, const Vec3& up_C,
+                                       double camera_height_m, const GroundPlaneOptions& options) {
   if (step.status != Status::kOk || step.points_cur_unit.empty()) return std::nullopt;
   const auto plane = fitGroundPlane(step.points_cur_unit, up_C, options);
   if (!plane || !(plane->height > 1e-9)) return std::nullopt;
@@ -173,7 +184,8 @@ std::optional<double> groundPlaneScale(const ChainStep& step, const Vec3& up_C, 
   return scale;
 }
 
-SE3 chainPose(const SE3& T_W_Bprev, const SE3& T_B_C, const Mat3& R_cur_prev, const Vec3& t_cur_prev) {
+SE3 chainPose(const SE3& T_W_Bprev, const SE3& T_B_C, const Mat3& R_cur_prev,
+              const Vec3& t_cur_prev) {
   SE3 T_Ccur_Cprev = SE3::Identity();
   T_Ccur_Cprev.linear() = R_cur_prev;
   T_Ccur_Cprev.translation() = t_cur_prev;

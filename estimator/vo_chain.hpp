@@ -4,7 +4,6 @@
 #pragma once
 
 #include <opencv2/core.hpp>
-
 #include <optional>
 #include <string>
 #include <vector>
@@ -19,16 +18,18 @@ namespace ovo::estimator {
 /// kept while the parallax is too small, as libviso2 does), in the camera frame, up to scale.
 /// "prev" in the names below is that reference frame.
 struct ChainStep {
-  frontend::RelativePoseResult::Status status = frontend::RelativePoseResult::Status::kTooFewMatches;
+  frontend::RelativePoseResult::Status status =
+      frontend::RelativePoseResult::Status::kTooFewMatches;
   bool first_frame = false;
-  Timestamp ref_t_ns = 0;              // time of the reference frame the motion is measured from
-  bool reference_advances = true;      // false: low parallax, the next frame is measured from ref too
-  Mat3 R_cur_prev = Mat3::Identity();  // camera rotation, X_cur = R X_ref + t
-  Vec3 t_cur_prev_unit = Vec3::Zero(); // unit length when status is kOk
-  std::vector<Vec3> points_cur_unit;   // inliers triangulated with |t| = 1, current camera frame
-  std::vector<Vec2> px_cur;            // their pixels in the current image
+  Timestamp ref_t_ns = 0;          // time of the reference frame the motion is measured from
+  bool reference_advances = true;  // false: low parallax, the next frame is measured from ref too
+  Mat3 R_cur_prev = Mat3::Identity();   // camera rotation, X_cur = R X_ref + t
+  Vec3 t_cur_prev_unit = Vec3::Zero();  // unit length when status is kOk
+  std::vector<Vec3> points_cur_unit;    // inliers triangulated with |t| = 1, current camera frame
+  std::vector<Vec2> px_cur;             // their pixels in the current image
   std::vector<Vec3> bearings_prev, bearings_cur;  // the inlier bearing pairs
-  std::vector<Vec2> px_all_cur;        // current pixel of every inlier pair (same order)
+  std::vector<Vec2> px_all_cur;                   // current pixel of every inlier pair (same order)
+  std::vector<std::uint64_t> track_ids;  // frontend track of every inlier pair (same order)
   int matches = 0;
   double frontend_ms = 0.0;
 };
@@ -47,7 +48,8 @@ class VoChain {
  public:
   VoChain(const camera::Camera& camera, const Config& config);
   /// Processes one image; R_cur_prev_prior (camera frame) helps matching in fast turns.
-  ChainStep step(Timestamp t_ns, const cv::Mat& grey, const std::optional<Mat3>& R_cur_prev_prior = std::nullopt);
+  ChainStep step(Timestamp t_ns, const cv::Mat& grey,
+                 const std::optional<Mat3>& R_cur_prev_prior = std::nullopt);
   frontend::Frontend& frontend() { return frontend_; }
 
  private:
@@ -61,20 +63,22 @@ class VoChain {
 /// Translation direction for a known rotation: t minimises sum (b_c . (t x R b_p))^2 over the
 /// inlier pairs (t is the null vector of the rows (R b_p x b_c)^T), signed so that the points lie
 /// in front (positive depth along both bearings). nullopt when degenerate.
-std::optional<Vec3> translationGivenRotation(const Mat3& R_cur_prev, const std::vector<Vec3>& bearings_prev,
+std::optional<Vec3> translationGivenRotation(const Mat3& R_cur_prev,
+                                             const std::vector<Vec3>& bearings_prev,
                                              const std::vector<Vec3>& bearings_cur);
 
 /// Triangulates the pairs at unit baseline in the current camera frame (points in front only).
-void triangulateUnit(const Mat3& R_cur_prev, const Vec3& t_unit, const std::vector<Vec3>& bearings_prev,
-                     const std::vector<Vec3>& bearings_cur, std::vector<Vec3>* points_cur,
-                     std::vector<std::uint8_t>* valid);
+void triangulateUnit(const Mat3& R_cur_prev, const Vec3& t_unit,
+                     const std::vector<Vec3>& bearings_prev, const std::vector<Vec3>& bearings_cur,
+                     std::vector<Vec3>* points_cur, std::vector<std::uint8_t>* valid);
 
 /// Metric scale of a unit-baseline step from the ground plane and the configured camera height.
 /// up_C: the body's up axis in the camera frame (R_C_B z_B).
-std::optional<double> groundPlaneScale(const ChainStep& step, const Vec3& up_C, double camera_height_m,
-                                       const GroundPlaneOptions& options);
+std::optional<double> groundPlaneScale(const ChainStep& step, const Vec3& up_C,
+                                       double camera_height_m, const GroundPlaneOptions& options);
 
 /// T_W_Bcur from T_W_Bprev and the camera motion (R, t metric), via the rig's T_B_C.
-SE3 chainPose(const SE3& T_W_Bprev, const SE3& T_B_C, const Mat3& R_cur_prev, const Vec3& t_cur_prev);
+SE3 chainPose(const SE3& T_W_Bprev, const SE3& T_B_C, const Mat3& R_cur_prev,
+              const Vec3& t_cur_prev);
 
 }  // namespace ovo::estimator
