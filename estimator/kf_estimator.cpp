@@ -153,8 +153,8 @@ class KfEstimator final : public Estimator {
     } else {
       // The chain measures from its reference frame (older than the previous one while the
       // parallax is small); the filter's clone stays at that reference until the chain moves on.
-      const SE3 T_ref = poseAt(trajectory_, s.ref_t_ns);
-      const SE3 T_ref_base = poseAt(base_trajectory_, s.ref_t_ns);
+      const SE3 T_ref = poseAtOrNewest(trajectory_, s.ref_t_ns);
+      const SE3 T_ref_base = poseAtOrNewest(base_trajectory_, s.ref_t_ns);
       const double dt = toSeconds(t_ns - s.ref_t_ns);
       const bool vo_ok = s.status == Status::kOk || s.status == Status::kLowParallax;
       const Mat3& R_B_C = setup_.T_B_C.linear();
@@ -232,12 +232,6 @@ class KfEstimator final : public Estimator {
   std::vector<std::pair<Timestamp, Vec3>> biasHistory() const override { return bias_history_; }
 
  private:
-  template <typename Poses>
-  static SE3 poseAt(const Poses& poses, Timestamp t_ns) {
-    for (auto it = poses.rbegin(); it != poses.rend(); ++it)
-      if (it->t_ns == t_ns) return it->T_W_B;
-    return poses.back().T_W_B;
-  }
   std::optional<SE3> basePoseAt(Timestamp t_ns) const {
     auto it = std::lower_bound(base_trajectory_.begin(), base_trajectory_.end(), t_ns,
                                [](const StampedPose& p, Timestamp t) { return p.t_ns < t; });

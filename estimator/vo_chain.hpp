@@ -77,6 +77,15 @@ void triangulateUnit(const Mat3& R_cur_prev, const Vec3& t_unit,
 std::optional<double> groundPlaneScale(const ChainStep& step, const Vec3& up_C,
                                        double camera_height_m, const GroundPlaneOptions& options);
 
+/// The pose stamped t_ns in a time-ordered, non-empty sequence of StampedPose (searched from the
+/// newest end, where a chain's reference frame is), or the newest pose when no stamp matches.
+template <typename Poses>
+SE3 poseAtOrNewest(const Poses& poses, Timestamp t_ns) {
+  for (auto it = poses.rbegin(); it != poses.rend(); ++it)
+    if (it->t_ns == t_ns) return it->T_W_B;
+  return poses.back().T_W_B;
+}
+
 /// T_W_Bcur from T_W_Bprev and the camera motion (R, t metric), via the rig's T_B_C.
 SE3 chainPose(const SE3& T_W_Bprev, const SE3& T_B_C, const Mat3& R_cur_prev,
               const Vec3& t_cur_prev);

@@ -54,7 +54,7 @@ class VoEstimator final : public Estimator {
     } else {
       // Motion is measured from the chain's reference frame (older than the previous one while the
       // parallax is small).
-      const SE3 T_prev = poseAt(s.ref_t_ns);
+      const SE3 T_prev = poseAtOrNewest(trajectory_, s.ref_t_ns);
       const double dt = toSeconds(t_ns - s.ref_t_ns);
       spdlog::debug("vo t={} status={} pairs={} inliers={} points={} ref_dt={:.3f}", t_ns,
                     frontend::toString(s.status), s.matches, s.bearings_cur.size(), s.points_cur_unit.size(), dt);
@@ -105,11 +105,6 @@ class VoEstimator final : public Estimator {
   EstimatorStats stats() const override { return stats_; }
 
  private:
-  SE3 poseAt(Timestamp t_ns) const {
-    for (auto it = trajectory_.rbegin(); it != trajectory_.rend(); ++it)
-      if (it->t_ns == t_ns) return it->T_W_B;
-    return trajectory_.back().T_W_B;
-  }
 
   SensorSetup setup_;
   VoOptions options_;

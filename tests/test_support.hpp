@@ -6,8 +6,11 @@
 
 #include <Eigen/Core>
 #include <filesystem>
+#include <fstream>
 #include <functional>
 #include <string>
+
+#include "common/error.hpp"
 
 namespace ovo::test {
 
@@ -21,6 +24,24 @@ std::filesystem::path tempDir();
 /// Runs `build/ovo <args>`; returns the exit code; stdout and stderr go to *out / *err when given.
 int runOvo(const std::string& args, std::string* out = nullptr, std::string* err = nullptr);
 
+/// Writes `text` to `file` (creating its folder), for tests that build bad input files.
+inline void writeTextFile(const std::filesystem::path& file, const std::string& text) {
+  if (file.has_parent_path()) std::filesystem::create_directories(file.parent_path());
+  std::ofstream out(file, std::ios::binary);
+  out << text;
+}
+
+/// The message of the ovo::Error that f() throws, or "<no error>".
+template <typename F>
+std::string errorOf(F&& f) {
+  try {
+    f();
+  } catch (const ovo::Error& e) {
+    return e.what();
+  }
+  return "<no error>";
+}
+
 /// Central-difference Jacobian of f: R^n -> R^m at x.
 Eigen::MatrixXd numericJacobian(const std::function<Eigen::VectorXd(const Eigen::VectorXd&)>& f,
                                 const Eigen::VectorXd& x, double h = 1e-6);
@@ -28,22 +49,26 @@ Eigen::MatrixXd numericJacobian(const std::function<Eigen::VectorXd(const Eigen:
 }  // namespace ovo::test
 
 /// Skips the test with a message when ../shared/data/<rel> is absent.
-#define OVO_REQUIRE_DATA(rel)                                                              \
-  do {                                                                                     \
-    if (!std::filesystem::exists(::ovo::test::sharedData(rel)))                            \
-      GTEST_SKIP() << "shared data not found: " << ::ovo::test::sharedData(rel).string()   \
-                   << " (tests on real data need ../shared/data beside the project)";      \
+#define OVO_REQUIRE_DATA(rel)                                                            \
+  do {                                                                                   \
+    if (!std::filesystem::exists(::ovo::test::sharedData(rel)))                          \
+      GTEST_SKIP() << "shared data not found: " << ::ovo::test::sharedData(rel).string() \
+                   << " (tests on real data need ../shared/data beside the project)";    \
   } while (0)
 
 /// Compares two Jacobians elementwise with a tolerance relative to the larger magnitude.
-#define OVO_EXPECT_JACOBIAN_NEAR(J_analytic, J_numeric, tol)                                   \
-  do {                                                                                         \
-    const Eigen::MatrixXd _a = (J_analytic);                                                   \
-    const Eigen::MatrixXd _n = (J_numeric);                                                    \
-    ASSERT_EQ(_a.rows(), _n.rows());                                                           \
-    ASSERT_EQ(_a.cols(), _n.cols());                                                           \
-    const double _scale = std::max(1.0, _n.cwiseAbs().maxCoeff());                            \
-    EXPECT_LE((_a - _n).cwiseAbs().maxCoeff(), (tol) * _scale) << "analytic:\n"                \
-                                                               << _a << "\nnumeric:\n"         \
-                                                               << _n;                          \
+#define OVO_EXPECT_JACOBIAN_NEAR(J_analytic, J_numeric, tol)                         \
+  do {                                                                               \
+    const Eigen::MatrixXd _a = (J_analytic);                                         \
+    const Eigen::MatrixXd _n = (J_numeric);                                          \
+    ASSERT_EQ(_a.rows(), _n.rows());                                                 \
+    ASSERT_EQ(_a.cols(), _n.cols());                                                 \
+    const double _scale = std::max(1.0, _n.cwiseAbs().maxCoeff());                   \
+    EXPECT_LE((_a - _n).cwiseAbs().maxCoeff(), (tol)*_scale) << "analytic:\n"        \
+                                                             << _a << "\nnumeric:\n" \
+                                                             << _n;                  \
   } while (0)
+
+/// Expects `part` to occur in `text` (an error message, a file's content).
+#define EXPECT_CONTAINS(text, part) \
+  EXPECT_NE(std::string(text).find(part), std::string::npos) << "in: " << (text)

@@ -15,24 +15,7 @@ namespace {
 
 namespace fs = std::filesystem;
 
-void writeText(const fs::path& file, const std::string& text) {
-  fs::create_directories(file.parent_path());
-  std::ofstream out(file, std::ios::binary);
-  out << text;
-}
-
-template <typename F>
-std::string errorOf(F&& f) {
-  try {
-    f();
-  } catch (const ovo::Error& e) {
-    return e.what();
-  }
-  return "<no error>";
-}
-
-#define EXPECT_CONTAINS(text, part) \
-  EXPECT_NE(std::string(text).find(part), std::string::npos) << "in: " << (text)
+using test::errorOf;
 
 TEST(Dataset, EurocMicroLoadsAsItIs) {
   OVO_REQUIRE_DATA("euroc-v101-micro/mav0");
@@ -111,32 +94,32 @@ fs::path writeMiniDataset(const fs::path& root) {
     cv::imwrite((root / "cam0" / "data" / name).string(), image);
     list += std::to_string(1000000000LL + i * 50000000LL) + "," + name + "\n";
   }
-  writeText(root / "cam0" / "data.csv", list);
-  writeText(root / "cam0" / "sensor.yaml",
+  test::writeTextFile(root / "cam0" / "data.csv", list);
+  test::writeTextFile(root / "cam0" / "sensor.yaml",
             "sensor_type: camera\n"
             "T_BS:\n  cols: 4\n  rows: 4\n  data: [0, 0, 1, 0.1, -1, 0, 0, 0, 0, -1, 0, 0.5, 0, 0, "
             "0, 1]\n"
             "rate_hz: 20\nresolution: [64, 48]\ncamera_model: pinhole\n"
             "intrinsics: [50.0, 50.0, 31.5, 23.5]\n"
             "distortion_model: radial-tangential\ndistortion_coefficients: [0, 0, 0, 0]\n");
-  writeText(root / "imu0" / "data.csv",
+  test::writeTextFile(root / "imu0" / "data.csv",
             "#timestamp [ns],w_RS_S_x [rad s^-1],w_RS_S_y [rad s^-1],w_RS_S_z [rad s^-1],"
             "a_RS_S_x [m s^-2],a_RS_S_y [m s^-2],a_RS_S_z [m s^-2]\n"
             "1000000000,0.1,0.2,0.3,0,0,9.81\n1005000000,0.1,0.2,0.3,0,0,9.81\n");
-  writeText(root / "lidar0" / "data.csv",
+  test::writeTextFile(root / "lidar0" / "data.csv",
             "#timestamp [ns],angle_min [rad],angle_increment [rad],range_min [m],range_max [m],"
             "ranges [m]...\n"
             "1000000000,-1.5,0.5,0.1,30,1.0,nan,2.5,40,0.05,inf,3\n"
             "1100000000,-1.5,0.5,0.1,30,1.1,1.2,nan,nan,nan,nan,nan\n");
-  writeText(root / "rig.yaml",
+  test::writeTextFile(root / "rig.yaml",
             "T_B_C: [0, 0, 1, 0.2, -1, 0, 0, 0, 0, -1, 0, 1.0, 0, 0, 0, 1]\n"
             "T_B_L: [1, 0, 0, 0.3, 0, 1, 0, 0, 0, 0, 1, 0.6, 0, 0, 0, 1]\n"
             "camera: {rate_hz: 20.0, pixel_sigma: 0.7, height_m: 1.2}\n"
             "gyro: {rate_hz: 200.0, noise_density: 2.0e-4, bias_random_walk: 3.0e-5}\n"
             "lidar: {rate_hz: 10.0, range_sigma_m: 0.03}\n");
-  writeText(root / "groundtruth.txt",
+  test::writeTextFile(root / "groundtruth.txt",
             "# t[s] tx ty tz qx qy qz qw\n1.0 0 0 0 0 0 0 1\n1.05 0.1 0 0 0 0 0 1\n");
-  writeText(root / "sim" / "truth_bias.csv",
+  test::writeTextFile(root / "sim" / "truth_bias.csv",
             "#timestamp [ns],b_x,b_y,b_z [rad s^-1]\n1000000000,0.001,-0.002,0.003\n");
   return root;
 }
@@ -252,7 +235,7 @@ TEST(Dataset, BadInputGivesAnErrorNamingFileAndLine) {
     if (std::string(c.file).empty())
       fs::remove(root / "cam0" / "sensor.yaml");
     else
-      writeText(root / c.file, c.content);
+      test::writeTextFile(root / c.file, c.content);
     const std::string err = errorOf([&] { loadDataset(root); });
     EXPECT_CONTAINS(err, c.expected) << " (case " << c.name << ")";
   }
@@ -261,7 +244,7 @@ TEST(Dataset, BadInputGivesAnErrorNamingFileAndLine) {
 TEST(Dataset, ImageThatDoesNotDecodeNamesTheFile) {
   const fs::path root = writeMiniDataset(test::tempDir() / "ds");
   const Dataset ds = loadDataset(root);
-  writeText(ds.images[1].path, "this is not a png");
+  test::writeTextFile(ds.images[1].path, "this is not a png");
   const std::string err = errorOf([&] { loadImageGrey(ds.images[1]); });
   EXPECT_CONTAINS(err, ds.images[1].path.string() + ": cannot decode the image");
   fs::remove(ds.images[2].path);
@@ -283,24 +266,24 @@ TEST(Dataset, BrokenKittiFolders) {
   fs::copy_file(test::sharedData("kitti07-first160/image_0/000001.png"),
                 root / "image_0" / "000001.png");
   EXPECT_CONTAINS(errorOf([&] { loadDataset(root); }), "calib.txt");
-  writeText(root / "calib.txt", "P1: 1 0 0 0 0 1 0 0 0 0 1 0\n");
-  writeText(root / "times.txt", "0.0\n0.1\n");
+  test::writeTextFile(root / "calib.txt", "P1: 1 0 0 0 0 1 0 0 0 0 1 0\n");
+  test::writeTextFile(root / "times.txt", "0.0\n0.1\n");
   EXPECT_CONTAINS(errorOf([&] { loadDataset(root); }), "no 'P0:' row");
-  writeText(root / "calib.txt", "P0: 700 0 600 0 0 700 180 0 0 0 1\n");
+  test::writeTextFile(root / "calib.txt", "P0: 700 0 600 0 0 700 180 0 0 0 1\n");
   EXPECT_CONTAINS(errorOf([&] { loadDataset(root); }),
                   "calib.txt:1: expected 'P0:' and 12 numbers");
-  writeText(root / "calib.txt", "P0: 700 0 600 0 0 700 180 0 0 0 1 0\n");
-  writeText(root / "times.txt", "0.0\n");
+  test::writeTextFile(root / "calib.txt", "P0: 700 0 600 0 0 700 180 0 0 0 1 0\n");
+  test::writeTextFile(root / "times.txt", "0.0\n");
   EXPECT_CONTAINS(errorOf([&] { loadDataset(root); }), "frame 1 has no time stamp");
-  writeText(root / "times.txt", "0.0\n0.1\n");
-  writeText(root / "poses.txt", "1 0 0 0 0 1 0 0 0 0 1 0\n1 0 0 0 0 1 0 0 0 0 1\n");
+  test::writeTextFile(root / "times.txt", "0.0\n0.1\n");
+  test::writeTextFile(root / "poses.txt", "1 0 0 0 0 1 0 0 0 0 1 0\n1 0 0 0 0 1 0 0 0 0 1\n");
   EXPECT_CONTAINS(errorOf([&] { loadDataset(root); }), "poses.txt:2: expected 12 values");
-  writeText(root / "poses.txt", "1 0 0 0 0 1 0 0 0 0 1 0\n1 0 0 0 0 1 0 0 0 0 1 0.5\n");
+  test::writeTextFile(root / "poses.txt", "1 0 0 0 0 1 0 0 0 0 1 0\n1 0 0 0 0 1 0 0 0 0 1 0.5\n");
   const Dataset ds = loadDataset(root);
   ASSERT_EQ(ds.groundtruth.size(), 2u);
   EXPECT_EQ(ds.groundtruth[1].t_ns, 100000000);  // from times.txt
-  writeText(root / "image_0" / "000001.png", "garbage");
-  writeText(root / "image_0" / "000000.png", "garbage");
+  test::writeTextFile(root / "image_0" / "000001.png", "garbage");
+  test::writeTextFile(root / "image_0" / "000000.png", "garbage");
   EXPECT_CONTAINS(errorOf([&] { loadDataset(root); }), "000000.png: cannot decode the image");
 }
 

@@ -15,23 +15,7 @@ namespace {
 
 namespace fs = std::filesystem;
 
-void writeText(const fs::path& file, const std::string& text) {
-  std::ofstream out(file, std::ios::binary);
-  out << text;
-}
-
-template <typename F>
-std::string errorOf(F&& f) {
-  try {
-    f();
-  } catch (const ovo::Error& e) {
-    return e.what();
-  }
-  return "<no error>";
-}
-
-#define EXPECT_CONTAINS(text, part) \
-  EXPECT_NE(std::string(text).find(part), std::string::npos) << "in: " << (text)
+using test::errorOf;
 
 Trajectory sampleTrajectory() {
   Trajectory t;
@@ -84,7 +68,7 @@ TEST(TrajectoryIo, KittiRoundTripWithAndWithoutTime) {
 
 TEST(TrajectoryIo, WriteReplacesAtomicallyAndFailsCleanly) {
   const fs::path dir = test::tempDir();
-  writeText(dir / "t.txt", "old content\n");
+  test::writeTextFile(dir / "t.txt", "old content\n");
   writeTum(dir / "t.txt", sampleTrajectory());
   EXPECT_EQ(readTum(dir / "t.txt").size(), 5u);
   std::size_t files = 0;
@@ -97,7 +81,7 @@ TEST(TrajectoryIo, WriteReplacesAtomicallyAndFailsCleanly) {
 
 TEST(TrajectoryIo, ExactTimeParsing) {
   const fs::path file = test::tempDir() / "t.txt";
-  writeText(file,
+  test::writeTextFile(file,
             "# comment\n"
             "1305031102.160407 0 0 0 0 0 0 1\n"
             "1.403715529112143517e+09 0 0 0 0 0 0 1\n"
@@ -174,7 +158,7 @@ TEST(TrajectoryIo, BadInputNamesFileLineAndWhatWasExpected) {
   const fs::path dir = test::tempDir();
   for (const auto& c : cases) {
     const fs::path file = dir / (std::string(c.name) + ".txt");
-    writeText(file, c.text);
+    test::writeTextFile(file, c.text);
     const std::string err = errorOf([&] { readTrajectory(file, c.format); });
     EXPECT_CONTAINS(err, file.string() + ":" + std::to_string(c.line) + ": ");
     EXPECT_CONTAINS(err, c.expected);
@@ -183,8 +167,8 @@ TEST(TrajectoryIo, BadInputNamesFileLineAndWhatWasExpected) {
 
 TEST(TrajectoryIo, EmptyOrMissingFilesAreClearErrors) {
   const fs::path dir = test::tempDir();
-  writeText(dir / "empty.txt", "");
-  writeText(dir / "comments.txt", "# only a comment\n\n");
+  test::writeTextFile(dir / "empty.txt", "");
+  test::writeTextFile(dir / "comments.txt", "# only a comment\n\n");
   for (auto format : {TrajectoryFormat::kTum, TrajectoryFormat::kKitti, TrajectoryFormat::kEurocCsv,
                       TrajectoryFormat::kAuto}) {
     EXPECT_CONTAINS(errorOf([&] { readTrajectory(dir / "empty.txt", format); }), "no poses found");
