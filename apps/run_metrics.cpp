@@ -19,22 +19,30 @@ double percentile(std::vector<double> values, double pct) {
 
 namespace {
 
-// Per consecutive pair: rotation error of the relative motion [deg], and the angle between the
-// estimated and true translation directions [deg] for pairs that truly move >= min_move_m.
+// Angle between two translation directions [deg]; 180 when the estimate has none.
+double directionErrorDeg(const Vec3& t_true, const Vec3& t_est) {
+  if (t_est.norm() < 1e-12) return 180.0;  // no motion estimated where there was some: worst case
+  const double c = std::clamp(t_true.normalized().dot(t_est.normalized()), -1.0, 1.0);
+  return std::acos(c) * 180.0 / M_PI;
+}
+
+// Per consecutive pair: the rotation error of the relative motion [deg]. Per frame i: the angle
+// between the estimated and true translation directions [deg] from i to the first later frame j
+// that truly moved >= min_move_m away (frame pairs closer than that are too short for a direction
+// at 20 Hz and 0.8 m/s), looking at most kMaxSpan frames ahead (a standstill gives no pair).
 void perFrameErrors(const eval::Associated& a, double min_move_m, std::vector<double>& rot_deg,
                     std::vector<double>& dir_deg) {
+  constexpr std::size_t kMaxSpan = 50;
   for (std::size_t i = 0; i + 1 < a.size(); ++i) {
     const SE3 dQ = a.ref[i].T_W_B.inverse() * a.ref[i + 1].T_W_B;
     const SE3 dP = a.est[i].T_W_B.inverse() * a.est[i + 1].T_W_B;
     rot_deg.push_back(so3::angle(dQ.linear().transpose() * dP.linear()) * 180.0 / M_PI);
-    const Vec3 tq = dQ.translation(), tp = dP.translation();
-    if (tq.norm() >= min_move_m) {
-      if (tp.norm() < 1e-12) {
-        dir_deg.push_back(180.0);  // no motion estimated where there was some: worst case
-      } else {
-        const double c = std::clamp(tq.normalized().dot(tp.normalized()), -1.0, 1.0);
-        dir_deg.push_back(std::acos(c) * 180.0 / M_PI);
-      }
+    for (std::size_t j = i + 1; j < a.size() && j <= i + kMaxSpan; ++j) {
+      const Vec3 tq = a.ref[i].T_W_B.inverse() * a.ref[j].T_W_B.translation();
+      if (tq.norm() < min_move_m) continue;
+      const Vec3 tp = a.est[i].T_W_B.inverse() * a.est[j].T_W_B.translation();
+      dir_deg.push_back(directionErrorDeg(tq, tp));
+      break;
     }
   }
 }

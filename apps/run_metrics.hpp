@@ -20,8 +20,9 @@ struct RunTiming {
   std::vector<double> latency_ms;     // per processed frame: handed in -> pose out
 };
 
-/// Builds the metrics object. `groundtruth` may be empty. min_move_m: frames whose true motion is
-/// smaller are left out of the translation-direction error (issue 4: 5 cm).
+/// Builds the metrics object. `groundtruth` may be empty. min_move_m: the translation-direction
+/// error of frame i is measured to the first later frame that truly moved at least this far
+/// (issue 4: 5 cm).
 nlohmann::json computeRunMetrics(const Trajectory& estimate, const Trajectory& groundtruth,
                                  const estimator::EstimatorStats& stats, const RunTiming& timing,
                                  double min_move_m = 0.05);

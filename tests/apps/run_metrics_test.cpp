@@ -1,0 +1,62 @@
+// metrics.json keys of `ovo run` computed from trajectories with known errors.
+#include "apps/run_metrics.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+namespace ovo::app {
+namespace {
+
+constexpr double kDeg = M_PI / 180.0;
+
+// A straight drive along x at `step_m` per frame, 20 Hz.
+Trajectory straightDrive(int frames, double step_m) {
+  Trajectory t;
+  for (int i = 0; i < frames; ++i) {
+    SE3 T = SE3::Identity();
+    T.translation() = Vec3(step_m * i, 0.0, 0.0);
+    t.push_back({static_cast<Timestamp>(i) * 50'000'000, T});
+  }
+  return t;
+}
+
+// The same drive, but each frame's translation turned by `yaw_rad` in the body frame (a
+// translation-direction error of exactly that angle, no rotation error).
+Trajectory skewedDrive(int frames, double step_m, double yaw_rad) {
+  Trajectory t;
+  for (int i = 0; i < frames; ++i) {
+    SE3 T = SE3::Identity();
+    T.translation() = step_m * i * Vec3(std::cos(yaw_rad), std::sin(yaw_rad), 0.0);
+    t.push_back({static_cast<Timestamp>(i) * 50'000'000, T});
+  }
+  return t;
+}
+
+TEST(RunMetrics, TranslationDirectionSpansFramesShorterThanTheMinimumMove) {
+  // 4 cm per frame (0.8 m/s at 20 Hz): no single frame moves 5 cm, pairs of frames do.
+  const Trajectory gt = straightDrive(40, 0.04);
+  const Trajectory est = skewedDrive(40, 0.04, 2.0 * kDeg);
+  const nlohmann::json m = computeRunMetrics(est, gt, {}, {}, 0.05);
+  ASSERT_TRUE(m.contains("rpe_trans_dir_deg_median"));
+  EXPECT_NEAR(m["rpe_trans_dir_deg_median"].get<double>(), 2.0, 1e-6);
+  EXPECT_NEAR(m["rpe_rot_deg_per_frame_median"].get<double>(), 0.0, 1e-9);
+}
+
+TEST(RunMetrics, AnEstimateThatStandsStillGetsTheWorstDirectionError) {
+  const Trajectory gt = straightDrive(20, 0.04);
+  Trajectory est = gt;
+  for (auto& p : est) p.T_W_B = SE3::Identity();
+  const nlohmann::json m = computeRunMetrics(est, gt, {}, {}, 0.05);
+  EXPECT_NEAR(m["rpe_trans_dir_deg_median"].get<double>(), 180.0, 1e-9);
+}
+
+TEST(RunMetrics, AStandstillGivesNoDirectionPairs) {
+  const Trajectory gt = straightDrive(30, 0.0);
+  const nlohmann::json m = computeRunMetrics(gt, gt, {}, {}, 0.05);
+  EXPECT_FALSE(m.contains("rpe_trans_dir_deg_median"));
+  EXPECT_TRUE(m.contains("rpe_rot_deg_per_frame_median"));
+}
+
+}  // namespace
+}  // namespace ovo::app
