@@ -1,13 +1,17 @@
 // Frontend speed (issue 4 target: detection + matching + serial RANSAC <= 10 ms median per 640x480
 // frame on one core). Frame pairs: KITTI 07 frames 0/1 from the shared data, and a 640x480 fisheye
-// pair rendered by the simulator (vineyard_row, RoMoVi OCamCalib camera).
+// pair rendered by the simulator (vineyard_row, RoMoVi OCamCalib camera). Stage counters are thread
+// CPU ms; OVO_BENCH_SET="frontend.key=value;..." overrides frontend options for experiments.
 #include <benchmark/benchmark.h>
 
+#include <cstdlib>
 #include <filesystem>
 #include <memory>
 #include <opencv2/imgcodecs.hpp>
 #include <optional>
 #include <random>
+#include <sstream>
+#include <string>
 
 #include "camera/calib_io.hpp"
 #include "common/config.hpp"
@@ -48,8 +52,16 @@ std::optional<FramePair> ocamPair() {
   return cached;
 }
 
+// Defaults, or the frontend keys of OVO_BENCH_SET ("frontend.key=value;...") for experiments.
 frontend::FrontendOptions benchOptions(bool half = false) {
-  frontend::FrontendOptions options;
+  Config cfg;
+  if (const char* set = std::getenv("OVO_BENCH_SET")) {
+    std::stringstream list(set);
+    for (std::string item; std::getline(list, item, ';');) {
+      if (!item.empty()) cfg.applyOverride(item);
+    }
+  }
+  frontend::FrontendOptions options = frontend::readFrontendOptions(cfg);
   options.relative_pose.backend = "serial";
   options.detector.half_resolution = half;
   return options;
@@ -63,18 +75,19 @@ void runFrontend(benchmark::State& state, const std::optional<FramePair>& pair, 
   }
   frontend::Frontend frontend(pair->camera, benchOptions(half));
   frontend.process(0, pair->a);
-  frontend::FrontendTimings sum;
-  double features = 0, matches = 0, bucketed = 0, inliers = 0;
+  frontend::FrontendTimings sum;  // thread CPU time
+  double features = 0, queries = 0, matches = 0, bucketed = 0, inliers = 0;
   std::int64_t k = 1;
   for (auto _ : state) {
     const auto r = frontend.process(k * 50'000'000, (k % 2) ? pair->b : pair->a);
     ++k;
-    sum.filter_ms += r.timings.filter_ms;
-    sum.nms_ms += r.timings.nms_ms;
-    sum.match_ms += r.timings.match_ms;
-    sum.ransac_ms += r.timings.ransac_ms;
-    sum.track_ms += r.timings.track_ms;
+    sum.filter_ms += r.cpu_timings.filter_ms;
+    sum.nms_ms += r.cpu_timings.nms_ms;
+    sum.match_ms += r.cpu_timings.match_ms;
+    sum.ransac_ms += r.cpu_timings.ransac_ms;
+    sum.track_ms += r.cpu_timings.track_ms;
     features += r.num_features;
+    queries += r.match_stats.queries;
     matches += r.num_matches_before_bucketing;
     bucketed += static_cast<double>(r.matches.size());
     inliers += r.relative_pose ? r.relative_pose->num_inliers : 0;
@@ -86,6 +99,7 @@ void runFrontend(benchmark::State& state, const std::optional<FramePair>& pair, 
   state.counters["ransac_ms"] = sum.ransac_ms / n;
   state.counters["track_ms"] = sum.track_ms / n;
   state.counters["features"] = features / n;
+  state.counters["queries"] = queries / n;
   state.counters["matches"] = matches / n;
   state.counters["bucketed"] = bucketed / n;
   state.counters["inliers"] = inliers / n;
@@ -123,14 +137,13 @@ void runMatch(benchmark::State& state, const std::optional<FramePair>& pair, boo
     state.SkipWithError("frame pair not available");
     return;
   }
-  frontend::DetectorOptions options;
-  options.half_resolution = half;
+  const frontend::DetectorOptions options = benchOptions(half).detector;
   frontend::FeatureFrame a, b;
   frontend::extractFeatures(pair->a, options, cv::Mat(), &a);
   frontend::extractFeatures(pair->b, options, cv::Mat(), &b);
-  frontend::Matcher matcher;
+  frontend::Matcher matcher(benchOptions(half).matcher);
   std::size_t n = 0;
-  double sparse_ms = 0, dense_ms = 0, delaunay_ms = 0, sparse_matches = 0;
+  double sparse_ms = 0, dense_ms = 0, delaunay_ms = 0, refine_ms = 0, sparse_matches = 0;
   for (auto _ : state) {
     frontend::MatchStats stats;
     const auto matches = matcher.match(a, b, nullptr, &stats);
@@ -138,6 +151,7 @@ void runMatch(benchmark::State& state, const std::optional<FramePair>& pair, boo
     sparse_ms += stats.sparse_ms;
     dense_ms += stats.dense_ms;
     delaunay_ms += stats.delaunay_ms;
+    refine_ms += stats.refine_ms;
     sparse_matches += stats.sparse_matches;
     benchmark::DoNotOptimize(matches.data());
   }
@@ -147,6 +161,7 @@ void runMatch(benchmark::State& state, const std::optional<FramePair>& pair, boo
   state.counters["sparse_ms"] = sparse_ms / iters;
   state.counters["dense_ms"] = dense_ms / iters;
   state.counters["delaunay_ms"] = delaunay_ms / iters;
+  state.counters["refine_ms"] = refine_ms / iters;
 }
 
 // Delaunay flow filter on n uniformly random points of a 640x480 image, 5 % planted outliers.

@@ -1,8 +1,9 @@
 #include "frontend/features.hpp"
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
+
+#include "frontend/timing.hpp"
 
 namespace ovo::frontend {
 
@@ -95,8 +96,8 @@ void capPerBin(int cap, std::vector<int>* key, std::vector<int>* begin) {
 void extractFeatures(const cv::Mat& grey, const DetectorOptions& options, const cv::Mat& mask,
                      FeatureFrame* out, ExtractTimings* timings) {
   CV_Assert(grey.type() == CV_8UC1);
-  using Clock = std::chrono::steady_clock;
-  const auto t0 = Clock::now();
+  StageClock clock;
+  ExtractTimings local_timings;
   const bool half = options.half_resolution;
   out->scale = half ? 2 : 1;
   if (half) {
@@ -109,7 +110,7 @@ void extractFeatures(const cv::Mat& grey, const DetectorOptions& options, const 
     computeFilters(grey, &out->filters);
   }
   const FilterImages& f = out->filters;
-  const auto t1 = Clock::now();
+  clock.lap(&local_timings.filter_ms, &local_timings.filter_cpu_ms);
   const int margin = std::max(options.margin_px / out->scale,
                               kernels::kDescriptorRadius + kernels::kFilterBorder + 1);
   kernels::nonMaximumSuppression(f.blob.data(), f.corner.data(), f.width, f.height, options.nms_n,
@@ -167,11 +168,8 @@ void extractFeatures(const cv::Mat& grey, const DetectorOptions& options, const 
     out->vs[i] = r.v;
     computeDescriptor(f, r.u, r.v, out->descriptors.data() + static_cast<std::size_t>(i) * 32);
   }
-  if (timings) {
-    const auto t2 = Clock::now();
-    timings->filter_ms = std::chrono::duration<double, std::milli>(t1 - t0).count();
-    timings->nms_ms = std::chrono::duration<double, std::milli>(t2 - t1).count();
-  }
+  clock.lap(&local_timings.nms_ms, &local_timings.nms_cpu_ms);
+  if (timings) *timings = local_timings;
 }
 
 }  // namespace ovo::frontend

@@ -98,10 +98,12 @@ class FeatureFrame {
   int binOf(double u_grid, double v_grid, int* row) const;
 };
 
-/// Wall time of the two halves of extractFeatures() (milliseconds).
+/// Wall and thread-CPU time of the two halves of extractFeatures() (milliseconds).
 struct ExtractTimings {
   double filter_ms = 0.0;  // down-sampling and the four filters
   double nms_ms = 0.0;     // non-maximum suppression, binning, descriptors
+  double filter_cpu_ms = 0.0;
+  double nms_cpu_ms = 0.0;
 };
 
 /// Filters, detects and describes the features of `grey` (CV_8UC1). `mask` (optional, CV_8UC1 of

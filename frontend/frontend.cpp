@@ -1,20 +1,12 @@
 #include "frontend/frontend.hpp"
 
-#include <chrono>
 #include <cmath>
 
 #include "common/error.hpp"
 #include "frontend/mask.hpp"
+#include "frontend/timing.hpp"
 
 namespace ovo::frontend {
-namespace {
-
-using Clock = std::chrono::steady_clock;
-double msSince(Clock::time_point t0) {
-  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
-}
-
-}  // namespace
 
 FrontendOptions readFrontendOptions(const Config& cfg) {
   FrontendOptions o;
@@ -39,6 +31,8 @@ FrontendOptions readFrontendOptions(const Config& cfg) {
   m.subpixel = *parseSubpixelMode(subpixel);
   m.max_refine_steps = cfg.getIntInRange("frontend.max_refine_steps", m.max_refine_steps, 0, 20);
   m.min_cost_contrast = cfg.getInRange("frontend.min_cost_contrast", m.min_cost_contrast, 0.0, 1.0);
+  m.max_queries_per_bin =
+      cfg.getIntInRange("frontend.max_queries_per_bin", m.max_queries_per_bin, 0, 100000);
   m.delaunay_filter = cfg.get<bool>("frontend.delaunay_filter", m.delaunay_filter);
   m.delaunay_flow_tol_px =
       cfg.getInRange("frontend.delaunay_flow_tol_px", m.delaunay_flow_tol_px, 0.0, 1000.0);
@@ -109,36 +103,44 @@ FrontendResult Frontend::process(Timestamp t_ns, const cv::Mat& grey,
     fail("frontend: expected a {}x{} 8-bit grey image, got {}x{} of OpenCV type {}", w, h,
          grey.cols, grey.rows, grey.type());
   }
-  const auto t_start = Clock::now();
+  StageClock clock;
   FrontendResult result;
+  FrontendTimings& wall = result.timings;
+  FrontendTimings& cpu = result.cpu_timings;
   result.frame_index = ++frame_index_;
   result.t_ns = t_ns;
 
   ExtractTimings extract;
   extractFeatures(grey, options_.detector, mask_, &cur_, &extract);
-  result.timings.filter_ms = extract.filter_ms;
-  result.timings.nms_ms = extract.nms_ms;
+  wall.filter_ms = extract.filter_ms;
+  wall.nms_ms = extract.nms_ms;
+  cpu.filter_ms = extract.filter_cpu_ms;
+  cpu.nms_ms = extract.nms_cpu_ms;
   result.num_features = cur_.size();
+  double extract_wall_ms = 0.0, extract_cpu_ms = 0.0;
+  clock.lap(&extract_wall_ms, &extract_cpu_ms);
 
-  // Match with the previous frame, then bucket (older tracks first).
-  auto t0 = Clock::now();
+  // Match with the previous frame (under a query cap, older tracks are searched first), then
+  // bucket (older tracks first).
   std::vector<Match> matches;
   std::vector<std::uint8_t> used;
   if (has_prev_) {
     MatchPrediction prediction;
     const bool predicted = R_cur_prev_prior && options_.use_rotation_prior;
     if (predicted) predict(*R_cur_prev_prior, &prediction);
-    matches = matcher_.match(prev_, cur_, predicted ? &prediction : nullptr, &result.match_stats);
+    std::vector<int> prev_age(prev_.size());
+    for (int i = 0; i < prev_.size(); ++i) prev_age[i] = tracker_.current(i).age;
+    matches = matcher_.match(prev_, cur_, predicted ? &prediction : nullptr, &result.match_stats,
+                             &prev_age);
     std::vector<int> age(matches.size());
-    for (std::size_t k = 0; k < matches.size(); ++k) age[k] = tracker_.current(matches[k].prev).age;
+    for (std::size_t k = 0; k < matches.size(); ++k) age[k] = prev_age[matches[k].prev];
     used = bucketMatches(matches, age, options_.bucket_size_px, options_.bucket_max_matches);
   }
   result.num_matches_before_bucketing = static_cast<int>(matches.size());
-  result.timings.match_ms = msSince(t0);
+  clock.lap(&wall.match_ms, &cpu.match_ms);
 
   // Observation pixels: a matched feature continues its predecessor's pixel by the measured flow
   // (so cost-mode refinement stays consistent along a track); others keep their own position.
-  t0 = Clock::now();
   const bool refined = options_.matcher.subpixel == SubpixelMode::kResponse;
   std::vector<Vec2> px(cur_.size());
   std::vector<int> prev_index(cur_.size(), -1), cls(cur_.size());
@@ -159,10 +161,9 @@ FrontendResult Frontend::process(Timestamp t_ns, const cv::Mat& grey,
       prev_index[j] = -1;
     }
   }
-  result.timings.track_ms = msSince(t0);
+  clock.lap(&wall.track_ms, &cpu.track_ms);
 
   // Relative pose on the bucketed matches.
-  t0 = Clock::now();
   std::vector<int> used_matches;
   for (std::size_t k = 0; k < matches.size(); ++k) {
     if (used[k] && prev_index[matches[k].cur] >= 0) used_matches.push_back(static_cast<int>(k));
@@ -187,9 +188,8 @@ FrontendResult Frontend::process(Timestamp t_ns, const cv::Mat& grey,
       }
     }
   }
-  result.timings.ransac_ms = msSince(t0);
+  clock.lap(&wall.ransac_ms, &cpu.ransac_ms);
 
-  t0 = Clock::now();
   tracker_.update(result.frame_index, t_ns, px, bearings, cls, prev_index);
   const auto& ids = tracker_.currentIds();
   for (const int k : used_matches) fm.track_ids.push_back(ids[matches[k].cur]);
@@ -198,8 +198,9 @@ FrontendResult Frontend::process(Timestamp t_ns, const cv::Mat& grey,
   prev_px_ = std::move(px);
   prev_bearing_ = std::move(bearings);
   has_prev_ = true;
-  result.timings.track_ms += msSince(t0);
-  result.timings.total_ms = msSince(t_start);
+  clock.lap(&wall.track_ms, &cpu.track_ms);
+  wall.total_ms = extract_wall_ms + wall.match_ms + wall.ransac_ms + wall.track_ms;
+  cpu.total_ms = extract_cpu_ms + cpu.match_ms + cpu.ransac_ms + cpu.track_ms;
   return result;
 }
 

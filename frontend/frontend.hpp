@@ -19,18 +19,19 @@
 namespace ovo::frontend {
 
 struct FrontendOptions {
-  DetectorOptions detector;           // frontend.nms_n, nms_n_sparse, nms_tau, margin_px,
-                                      // bin_size_px, bin_max_features, half_resolution
-  MatcherOptions matcher;             // frontend.search_radius_px, search_radius_predicted_px,
-                                      // sparse_pass, flow_margin_px, max_cost_ratio, subpixel,
-                                      // max_refine_steps, min_cost_contrast,
-                                      // delaunay_filter, delaunay_flow_tol_px, delaunay_min_support
-  TrackerOptions tracker;             // frontend.max_track_history
-  RelativePoseOptions relative_pose;  // ransac.* (readRelativePoseOptions)
-  int mask_border_px = 8;             // features at least this far inside the valid area (px)
-  int bucket_size_px = 50;            // bucketing cell (px)
-  int bucket_max_matches = 4;         // matches per cell passed to RANSAC (0 = all)
-  bool use_rotation_prior = true;     // use R_cur_prev priors given to process()
+  DetectorOptions detector;  // frontend.nms_n, nms_n_sparse, nms_tau, margin_px,
+                             // bin_size_px, bin_max_features, half_resolution
+  MatcherOptions
+      matcher;  // frontend.search_radius_px, search_radius_predicted_px,
+                // sparse_pass, flow_margin_px, max_cost_ratio, subpixel,
+                // max_refine_steps, min_cost_contrast,
+                // max_queries_per_bin, delaunay_filter, delaunay_flow_tol_px, delaunay_min_support
+  TrackerOptions tracker;                // frontend.max_track_history
+  RelativePoseOptions relative_pose;     // ransac.* (readRelativePoseOptions)
+  int mask_border_px = 8;                // features at least this far inside the valid area (px)
+  int bucket_size_px = 50;               // bucketing cell (px)
+  int bucket_max_matches = 4;            // matches per cell passed to RANSAC (0 = all)
+  bool use_rotation_prior = true;        // use R_cur_prev priors given to process()
   bool break_tracks_on_outliers = true;  // a RANSAC outlier does not continue its track
 };
 /// Reads the keys under "frontend." (names in the field comments above) and "ransac.".
@@ -44,7 +45,7 @@ struct FrameMatches {
   std::size_t size() const { return px_cur.size(); }
 };
 
-/// Wall time of the stages of one process() call (milliseconds).
+/// Time of the stages of one process() call (milliseconds).
 struct FrontendTimings {
   double filter_ms = 0.0;
   double nms_ms = 0.0;     // NMS, binning and descriptors
@@ -63,7 +64,8 @@ struct FrontendResult {
   std::optional<RelativePoseResult> relative_pose;  // absent on the first frame
   MatchStats match_stats;
   int num_matches_before_bucketing = 0;
-  FrontendTimings timings;
+  FrontendTimings timings;      // wall time
+  FrontendTimings cpu_timings;  // CPU time of the calling thread (RANSAC worker threads excluded)
 };
 
 /// Owns the camera, its mask, the matcher, the tracks and the RANSAC. Not thread-safe.

@@ -1,12 +1,12 @@
 #include "frontend/matcher.hpp"
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <limits>
 #include <numeric>
 
 #include "frontend/delaunay.hpp"
+#include "frontend/timing.hpp"
 
 namespace ovo::frontend {
 namespace {
@@ -190,19 +190,40 @@ std::optional<Vec2> Matcher::refineCost(const FeatureFrame& prev, int p, const F
   return cur.toFull(u + *ou, v + *ov);
 }
 
+void Matcher::selectQueries(const FeatureFrame& prev, const std::vector<int>* priority) {
+  queries_.clear();
+  const int cap = options_.max_queries_per_bin;
+  const int groups = static_cast<int>(prev.bin_begin.size()) - 1;
+  const auto prio = [&](int i) { return priority ? (*priority)[i] : 0; };
+  // Higher priority, then stronger response, then lower index.
+  const auto before = [&](int a, int b) {
+    if (prio(a) != prio(b)) return prio(a) > prio(b);
+    const int va = std::abs(prev.features[a].value), vb = std::abs(prev.features[b].value);
+    return va != vb ? va > vb : a < b;
+  };
+  for (int g = 0; g < groups; ++g) {
+    const int first = prev.bin_begin[g], last = prev.bin_begin[g + 1];
+    if (cap <= 0 || last - first <= cap) {
+      for (int i = first; i < last; ++i) queries_.push_back(i);
+      continue;
+    }
+    group_.resize(last - first);
+    std::iota(group_.begin(), group_.end(), first);
+    std::nth_element(group_.begin(), group_.begin() + cap - 1, group_.end(), before);
+    queries_.insert(queries_.end(), group_.begin(), group_.begin() + cap);
+  }
+}
+
 std::vector<Match> Matcher::match(const FeatureFrame& prev, const FeatureFrame& cur,
-                                  const MatchPrediction* prediction, MatchStats* stats) {
+                                  const MatchPrediction* prediction, MatchStats* stats,
+                                  const std::vector<int>* prev_priority) {
   MatchStats local_stats;
   const std::vector<Vec2>* pred_cur_of_prev = prediction ? &prediction->cur_px_of_prev : nullptr;
   const std::vector<std::uint8_t>* prev_valid = prediction ? &prediction->prev_valid : nullptr;
   const std::vector<Vec2>* pred_prev_of_cur = prediction ? &prediction->prev_px_of_cur : nullptr;
   const std::vector<std::uint8_t>* cur_valid = prediction ? &prediction->cur_valid : nullptr;
 
-  using Clock = std::chrono::steady_clock;
-  const auto ms = [](Clock::time_point a, Clock::time_point b) {
-    return std::chrono::duration<double, std::milli>(b - a).count();
-  };
-  const auto t0 = Clock::now();
+  const double t0 = threadCpuMs();
   // Sparse pass: circle-checked matches among the sparse features over the full window.
   const bool use_prior = options_.sparse_pass;
   if (use_prior) {
@@ -263,52 +284,56 @@ std::vector<Match> Matcher::match(const FeatureFrame& prev, const FeatureFrame& 
     }
   }
 
-  const auto t1 = Clock::now();
-  // Dense pass with circle check current -> previous -> current.
+  const double t1 = threadCpuMs();
+  // Dense pass with circle check previous -> current -> previous.
+  selectQueries(prev, prev_priority);
+  local_stats.queries = static_cast<int>(queries_.size());
   std::vector<Match> matches;
-  reverse_.assign(prev.size(), -2);
-  for (int q = 0; q < cur.size(); ++q) {
+  reverse_.assign(cur.size(), -2);
+  for (const int p : queries_) {
     std::uint32_t cost = 0;
-    const int p = search(
-        cur, q, prev,
-        window(cur, q, prev, pred_prev_of_cur, cur_valid, use_prior ? &prior_from_cur_ : nullptr),
+    const int q = search(
+        prev, p, cur,
+        window(prev, p, cur, pred_cur_of_prev, prev_valid, use_prior ? &prior_from_prev_ : nullptr),
         &cost);
-    if (p < 0) continue;
-    if (reverse_[p] == -2) {
+    if (q < 0) continue;
+    if (reverse_[q] == -2) {
       std::uint32_t back_cost = 0;
-      reverse_[p] = search(prev, p, cur,
-                           window(prev, p, cur, pred_cur_of_prev, prev_valid,
-                                  use_prior ? &prior_from_prev_ : nullptr),
-                           &back_cost);
+      reverse_[q] = search(
+          cur, q, prev,
+          window(cur, q, prev, pred_prev_of_cur, cur_valid, use_prior ? &prior_from_cur_ : nullptr),
+          &back_cost);
     }
-    if (reverse_[p] != q) continue;
+    if (reverse_[q] != p) continue;
     Match m;
     m.prev = p;
     m.cur = q;
     m.cost = cost;
-    const auto refined = refineCost(prev, p, cur, q);
+    const bool response = options_.subpixel == SubpixelMode::kResponse;
+    m.px_prev = prev.pixel(p, response);
+    m.px_cur = cur.pixel(q, response);
+    matches.push_back(m);
+  }
+  std::sort(matches.begin(), matches.end(),
+            [](const Match& a, const Match& b) { return a.cur < b.cur; });
+  local_stats.circle_matches = static_cast<int>(matches.size());
+  const double t2 = threadCpuMs();
+
+  // Sub-pixel refinement (and the SSD-minimum check of every mode), before the Delaunay filter so
+  // that only well-localised matches support their neighbours.
+  std::size_t num_refined = 0;
+  for (std::size_t k = 0; k < matches.size(); ++k) {
+    Match& m = matches[k];
+    const auto refined = refineCost(prev, m.prev, cur, m.cur);
     if (!refined) {
       ++local_stats.not_minimum;
       continue;
     }
-    switch (options_.subpixel) {
-      case SubpixelMode::kNone:
-        m.px_prev = prev.pixel(p);
-        m.px_cur = cur.pixel(q);
-        break;
-      case SubpixelMode::kCost:
-        m.px_prev = prev.pixel(p);
-        m.px_cur = *refined;
-        break;
-      case SubpixelMode::kResponse:
-        m.px_prev = prev.pixel(p, true);
-        m.px_cur = cur.pixel(q, true);
-        break;
-    }
-    matches.push_back(m);
+    if (options_.subpixel == SubpixelMode::kCost) m.px_cur = *refined;
+    matches[num_refined++] = m;
   }
-  local_stats.circle_matches = static_cast<int>(matches.size());
-  const auto t2 = Clock::now();
+  matches.resize(num_refined);
+  const double t3 = threadCpuMs();
 
   if (options_.delaunay_filter && !matches.empty()) {
     std::vector<Vec2> px(matches.size()), flow(matches.size());
@@ -325,10 +350,11 @@ std::vector<Match> Matcher::match(const FeatureFrame& prev, const FeatureFrame& 
     local_stats.delaunay_removed = static_cast<int>(matches.size() - kept);
     matches.resize(kept);
   }
-  const auto t3 = Clock::now();
-  local_stats.sparse_ms = ms(t0, t1);
-  local_stats.dense_ms = ms(t1, t2);
-  local_stats.delaunay_ms = ms(t2, t3);
+  const double t4 = threadCpuMs();
+  local_stats.sparse_ms = t1 - t0;
+  local_stats.dense_ms = t2 - t1;
+  local_stats.refine_ms = t3 - t2;
+  local_stats.delaunay_ms = t4 - t3;
   if (stats) *stats = local_stats;
   return matches;
 }

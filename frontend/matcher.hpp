@@ -34,6 +34,9 @@ struct MatcherOptions {
   int max_refine_steps = 3;        // 8-neighbour descent steps on the SSD before the parabola
   double min_cost_contrast = 0.0;  // SSD rise to the flattest / steepest neighbour at the minimum
                                    // (drops edge features with an aperture problem; 0 = off)
+  int max_queries_per_bin = 0;     // previous-frame features searched for per class and bin:
+                                   // highest priority (track age) first, then strongest |response|
+                                   // (0 = all); the others still take part in the circle check
   bool delaunay_filter = true;
   double delaunay_flow_tol_px = 5.0;  // neighbours whose flows differ by less support each other
   int delaunay_min_support = 4;       // supports needed to keep a match
@@ -60,12 +63,15 @@ struct MatchPrediction {
 
 struct MatchStats {
   int sparse_matches = 0;    // circle-checked sparse matches that survived the Delaunay filter
-  int circle_matches = 0;    // dense matches passing the circle check (and sub-pixel check)
+  int circle_matches = 0;    // dense matches passing the circle check
+  int queries = 0;           // previous-frame features searched for in the dense pass
   int not_minimum = 0;       // dropped: no (well-defined) SSD minimum within max_refine_steps
   int delaunay_removed = 0;  // dense matches removed by the Delaunay filter
-  double sparse_ms = 0.0;    // wall time of the sparse pass (including its Delaunay filter)
-  double dense_ms = 0.0;     // dense pass with circle check and sub-pixel refinement
-  double delaunay_ms = 0.0;  // Delaunay filter of the dense matches
+  // Thread CPU time (ms) of the stages.
+  double sparse_ms = 0.0;    // sparse pass, including its Delaunay filter
+  double dense_ms = 0.0;     // query selection, dense search and circle check
+  double delaunay_ms = 0.0;  // Delaunay filter of the refined dense matches
+  double refine_ms = 0.0;    // sub-pixel refinement of the circle-checked matches
 };
 
 /// Matches two frames. Holds only scratch buffers; not thread-safe.
@@ -74,9 +80,11 @@ class Matcher {
   explicit Matcher(const MatcherOptions& options = {}) : options_(options) {}
 
   /// Matches of previous -> current, one per feature at most, ordered by current index.
+  /// prev_priority (optional, one per previous feature, e.g. its track age) orders the query
+  /// choice of MatcherOptions::max_queries_per_bin.
   std::vector<Match> match(const FeatureFrame& prev, const FeatureFrame& cur,
-                           const MatchPrediction* prediction = nullptr,
-                           MatchStats* stats = nullptr);
+                           const MatchPrediction* prediction = nullptr, MatchStats* stats = nullptr,
+                           const std::vector<int>* prev_priority = nullptr);
 
   const MatcherOptions& options() const { return options_; }
 
@@ -99,8 +107,12 @@ class Matcher {
 
   MatcherOptions options_;
   std::vector<FlowRange> prior_from_cur_, prior_from_prev_;  // per bin of the query's image
-  std::vector<int> reverse_;                                 // memo of prev -> cur searches
-  FeatureFrame prev_sparse_, cur_sparse_;                    // sparse features only
+  void selectQueries(const FeatureFrame& prev, const std::vector<int>* priority);
+
+  std::vector<int> reverse_;               // memo of cur -> prev searches
+  std::vector<int> queries_;               // previous features searched for in the dense pass
+  std::vector<int> group_;                 // scratch of selectQueries
+  FeatureFrame prev_sparse_, cur_sparse_;  // sparse features only
   std::vector<int> prev_sparse_index_, cur_sparse_index_;
 };
 

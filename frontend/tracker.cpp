@@ -9,20 +9,22 @@ void TrackManager::update(std::int64_t frame_index, Timestamp t_ns, const std::v
                           const std::vector<int>& feature_class,
                           const std::vector<int>& prev_index) {
   const std::size_t n = px.size();
-  std::vector<std::uint8_t> continued(tracks_.size(), 0);
-  std::vector<Track> next(n);
+  // The tracks that ended at the previous update lend their history buffers to new tracks.
+  for (Track& t : finished_) spare_.push_back(std::move(t));
+  finished_.clear();
+  continued_.assign(tracks_.size(), 0);
+  next_.resize(n);
   current_ids_.resize(n);
   index_of_id_.clear();
   // Continued tracks keep their (older) ids; new tracks get ids above every live one, in feature
   // order, so sorting the continued entries sorts the whole index.
-  std::vector<int> fresh;
-  fresh.reserve(n);
+  fresh_.clear();
   for (std::size_t j = 0; j < n; ++j) {
     const TrackObservation obs{frame_index, t_ns, px[j], bearings_C[j]};
     const int p = prev_index[j];
-    if (p >= 0 && p < static_cast<int>(tracks_.size()) && !continued[p]) {
-      continued[p] = 1;
-      Track& track = next[j];
+    Track& track = next_[j];
+    if (p >= 0 && p < static_cast<int>(tracks_.size()) && !continued_[p]) {
+      continued_[p] = 1;
       track = std::move(tracks_[p]);
       ++track.age;
       if (options_.max_history > 0 &&
@@ -33,23 +35,31 @@ void TrackManager::update(std::int64_t frame_index, Timestamp t_ns, const std::v
       index_of_id_.emplace_back(track.id, static_cast<int>(j));
       continue;
     }
-    Track& track = next[j];
+    if (!spare_.empty()) {
+      track = std::move(spare_.back());
+      spare_.pop_back();
+    }
+    track.history.clear();
     track.feature_class = feature_class[j];
     track.age = 1;
     track.history.push_back(obs);
-    fresh.push_back(static_cast<int>(j));
+    fresh_.push_back(static_cast<int>(j));
   }
   std::sort(index_of_id_.begin(), index_of_id_.end());
-  for (const int j : fresh) {
-    next[j].id = next_id_++;
-    index_of_id_.emplace_back(next[j].id, j);
+  for (const int j : fresh_) {
+    next_[j].id = next_id_++;
+    index_of_id_.emplace_back(next_[j].id, j);
   }
-  for (std::size_t j = 0; j < n; ++j) current_ids_[j] = next[j].id;
-  finished_.clear();
+  for (std::size_t j = 0; j < n; ++j) current_ids_[j] = next_[j].id;
   for (std::size_t p = 0; p < tracks_.size(); ++p) {
-    if (!continued[p] && tracks_[p].age >= 2) finished_.push_back(std::move(tracks_[p]));
+    if (continued_[p]) continue;
+    if (tracks_[p].age >= 2) {
+      finished_.push_back(std::move(tracks_[p]));
+    } else {
+      spare_.push_back(std::move(tracks_[p]));
+    }
   }
-  tracks_ = std::move(next);
+  std::swap(tracks_, next_);
 }
 
 std::vector<FeatureObservation> TrackManager::currentObservations() const {

@@ -76,6 +76,11 @@ class TrackManager {
   std::vector<std::uint64_t> current_ids_;
   std::vector<Track> finished_;
   std::uint64_t next_id_ = 0;
+  // Per-update scratch, kept to avoid allocation: the next frame's tracks, ended tracks whose
+  // history buffers new tracks reuse, flags and the new tracks' features.
+  std::vector<Track> next_, spare_;
+  std::vector<std::uint8_t> continued_;
+  std::vector<int> fresh_;
 };
 
 }  // namespace ovo::frontend

@@ -152,6 +152,46 @@ TEST(Matcher, EachFeatureMatchedAtMostOnce) {
   }
 }
 
+TEST(Matcher, QueryCapSearchesHighestPriorityFeaturesFirst) {
+  // One query per class and bin: the matched previous features must be exactly the prioritised
+  // ones wherever a prioritised feature found its match (and never a feature of lower priority in
+  // a group that holds a prioritised one).
+  const cv::Mat img = texture(320, 240, 7);
+  FeatureFrame prev, cur;
+  extractFeatures(img, {}, cv::Mat(), &prev);
+  extractFeatures(shifted(img, 2.0, 1.0), {}, cv::Mat(), &cur);
+  std::vector<int> priority(prev.size(), 0);
+  for (int i = 0; i < prev.size(); i += 3) priority[i] = 5;  // e.g. features on old tracks
+  MatcherOptions capped;
+  capped.max_queries_per_bin = 1;
+  MatchStats stats;
+  const auto matches = Matcher(capped).match(prev, cur, nullptr, &stats, &priority);
+  const int groups = static_cast<int>(prev.bin_begin.size()) - 1;
+  int non_empty = 0;
+  for (int g = 0; g < groups; ++g) non_empty += prev.bin_begin[g + 1] > prev.bin_begin[g];
+  EXPECT_EQ(stats.queries, non_empty);
+  ASSERT_GT(matches.size(), 20u);
+  std::vector<int> group_of(prev.size());
+  for (int g = 0; g < groups; ++g)
+    for (int i = prev.bin_begin[g]; i < prev.bin_begin[g + 1]; ++i) group_of[i] = g;
+  for (const auto& m : matches) {
+    const int g = group_of[m.prev];
+    bool group_has_priority = false;
+    for (int i = prev.bin_begin[g]; i < prev.bin_begin[g + 1]; ++i)
+      group_has_priority |= priority[i] > 0;
+    if (group_has_priority) {
+      EXPECT_GT(priority[m.prev], 0) << "feature " << m.prev;
+    }
+    const Vec2 flow = m.px_cur - m.px_prev;
+    EXPECT_LT((flow - Vec2(2.0, 1.0)).norm(), 1.0);
+  }
+  // Uncapped, every feature is a query and more matches are found.
+  MatchStats all_stats;
+  const auto all = Matcher().match(prev, cur, nullptr, &all_stats, &priority);
+  EXPECT_EQ(all_stats.queries, prev.size());
+  EXPECT_GT(all.size(), 2 * matches.size());
+}
+
 TEST(Delaunay, TrianglesOfASquareWithCentre) {
   const std::vector<Vec2> pts = {{0, 0}, {10, 0}, {10, 10}, {0, 10}, {5, 5}};
   const auto tris = delaunayTriangles(pts);

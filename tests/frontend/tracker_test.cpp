@@ -62,6 +62,34 @@ TEST(TrackManager, HistoryCapKeepsTheNewestButCountsAge) {
   EXPECT_EQ(t->last().frame_index, 4);
 }
 
+TEST(TrackManager, NewTracksStartCleanAfterLongTracksEnd) {
+  // Long tracks end and new ones take their place (reusing their storage): a new track has one
+  // observation, age 1, its own class and a fresh id; the finished tracks keep their history.
+  TrackManager tracks;
+  const std::vector<Vec3> b2(2, Vec3::UnitZ());
+  tracks.update(0, 0, {{0, 0}, {5, 5}}, b2, {1, 2}, {-1, -1});
+  for (int k = 1; k < 4; ++k)
+    tracks.update(k, k, {{double(k), 0}, {5, 5.0 + k}}, b2, {1, 2}, {0, 1});
+  const auto old_ids = tracks.currentIds();
+  tracks.update(4, 4, {{50, 50}, {60, 60}}, b2, {0, 3}, {-1, -1});
+  ASSERT_EQ(tracks.finishedTracks().size(), 2u);
+  for (const Track& t : tracks.finishedTracks()) EXPECT_EQ(t.history.size(), 4u);
+  tracks.update(5, 5, {{51, 50}, {70, 70}}, b2, {0, 2}, {0, -1});
+  for (int j = 0; j < 2; ++j) {
+    const Track& t = tracks.current(j);
+    EXPECT_GT(t.id, old_ids[0]);
+    EXPECT_GT(t.id, old_ids[1]);
+  }
+  EXPECT_EQ(tracks.current(0).age, 2);
+  EXPECT_EQ(tracks.current(0).history.size(), 2u);
+  EXPECT_EQ(tracks.current(0).feature_class, 0);
+  EXPECT_EQ(tracks.current(1).age, 1);
+  ASSERT_EQ(tracks.current(1).history.size(), 1u);
+  EXPECT_EQ(tracks.current(1).last().px, Vec2(70, 70));
+  EXPECT_EQ(tracks.current(1).feature_class, 2);
+  EXPECT_EQ(tracks.find(old_ids[0]), nullptr);
+}
+
 camera::Camera pinhole640() {
   return camera::PinholeRadtanCamera(500, 500, 319.5, 239.5, 640, 480);
 }

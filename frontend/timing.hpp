@@ -1,0 +1,36 @@
+// Clocks for the frontend's per-stage timings: wall time (what a live pipeline waits for) and the
+// calling thread's CPU time (what a stage costs, independent of other load on the machine).
+#pragma once
+
+#include <chrono>
+#include <ctime>
+
+namespace ovo::frontend {
+
+/// CPU time consumed by the calling thread (milliseconds, arbitrary origin).
+inline double threadCpuMs() {
+  timespec ts{};
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+  return 1e3 * static_cast<double>(ts.tv_sec) + 1e-6 * static_cast<double>(ts.tv_nsec);
+}
+
+/// Wall and thread-CPU stopwatch (milliseconds since construction or the last lap()).
+class StageClock {
+ public:
+  StageClock() : wall_(std::chrono::steady_clock::now()), cpu_(threadCpuMs()) {}
+  /// Adds the time since the previous lap to *wall_ms and *cpu_ms and restarts.
+  void lap(double* wall_ms, double* cpu_ms) {
+    const auto wall = std::chrono::steady_clock::now();
+    const double cpu = threadCpuMs();
+    *wall_ms += std::chrono::duration<double, std::milli>(wall - wall_).count();
+    *cpu_ms += cpu - cpu_;
+    wall_ = wall;
+    cpu_ = cpu;
+  }
+
+ private:
+  std::chrono::steady_clock::time_point wall_;
+  double cpu_;
+};
+
+}  // namespace ovo::frontend
