@@ -62,7 +62,8 @@ int runRun(const RunArgs& args) {
   config.applyOverrides(args.sets);
   if (!args.refine.empty()) {
     if (args.estimator != "window")
-      fail("--refine {}: only the window estimator refines (got --estimator {})", args.refine, args.estimator);
+      fail("--refine {}: only the window estimator refines (got --estimator {})", args.refine,
+           args.estimator);
     config.applyOverride("window.refine=" + args.refine);
   }
 
@@ -217,7 +218,7 @@ CommandRunner setupRun(CLI::App& sub) {
       ->check(CLI::PositiveNumber)
       ->capture_default_str();
   sub.add_option("--queue-depth", args->queue_depth,
-                 "Camera frames that may wait for the estimator in --realtime (oldest dropped)")
+                 "Camera frames that may wait for the frontend in --realtime (oldest dropped)")
       ->check(CLI::Range(1, 1000))
       ->capture_default_str();
   sub.add_flag("--viewer", args->viewer,

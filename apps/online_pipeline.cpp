@@ -16,6 +16,7 @@ OnlinePipeline::OnlinePipeline(estimator::Estimator& estimator, OnlineOptions op
                                OutputCallback callback)
     : estimator_(estimator), options_(options), callback_(std::move(callback)) {
   if (options_.image_queue_depth < 1) fail("online pipeline: image_queue_depth must be >= 1");
+  if (options_.frame_queue_depth < 1) fail("online pipeline: frame_queue_depth must be >= 1");
 }
 
 OnlinePipeline::~OnlinePipeline() {
@@ -29,8 +30,13 @@ OnlinePipeline::~OnlinePipeline() {
 void OnlinePipeline::start() {
   std::lock_guard lock(mutex_);
   if (started_ || stopping_) return;
+  startLocked();
+}
+
+void OnlinePipeline::startLocked() {
   started_ = true;
-  thread_ = std::thread([this] { run(); });
+  frontend_thread_ = std::thread([this] { runFrontend(); });
+  estimator_thread_ = std::thread([this] { runEstimator(); });
 }
 
 bool OnlinePipeline::running() const {
@@ -76,6 +82,8 @@ bool OnlinePipeline::addGyro(const ImuSample& sample) {
       ++stats_.rejected;
       return false;
     }
+    // The frontend's prior source first: once last_gyro_t_ says a sample is there, it is.
+    estimator_.addFrontendGyro(sample);
     any_gyro_ = true;
     last_gyro_t_ = sample.t_ns;
     ++stats_.gyro_in;
@@ -95,6 +103,7 @@ bool OnlinePipeline::addScan(const LidarScan& scan) {
   last_scan_t_ = scan.t_ns;
   ++stats_.scans_in;
   scans_.push_back(scan);
+  wake_.notify_all();
   return true;
 }
 
@@ -105,12 +114,24 @@ bool OnlinePipeline::gyroReady(const PendingImage& image, Clock::time_point now)
                              std::chrono::duration<double, std::milli>(options_.gyro_wait_ms));
 }
 
-void OnlinePipeline::run() {
-  std::shared_ptr<const LidarScan> last_scan;
+void OnlinePipeline::setError(std::exception_ptr error) {
+  {
+    std::lock_guard lock(mutex_);
+    if (!error_) error_ = error;
+    stopping_ = true;
+    frontend_done_ = true;
+    images_.clear();
+    frames_.clear();
+  }
+  wake_.notify_all();
+}
+
+void OnlinePipeline::runFrontend() {
   try {
     for (;;) {
       std::unique_lock lock(mutex_);
       for (;;) {
+        if (error_) return;
         if (!images_.empty()) {
           const auto now = Clock::now();
           if (stopping_ || gyroReady(images_.front(), now)) break;
@@ -120,32 +141,72 @@ void OnlinePipeline::run() {
                             std::chrono::duration<double, std::milli>(options_.gyro_wait_ms)));
           continue;
         }
-        if (stopping_) return;
+        if (stopping_) {
+          frontend_done_ = true;
+          lock.unlock();
+          wake_.notify_all();
+          return;
+        }
         wake_.wait(lock);
       }
       PendingImage image = std::move(images_.front());
       images_.pop_front();
+      lock.unlock();
+
+      TrackedFrame tracked;
+      tracked.frame = estimator_.track(image.t_ns, image.grey);
+      tracked.grey = std::move(image.grey);
+      tracked.arrival = image.arrival;
+      tracked.tracked = Clock::now();
+
+      lock.lock();
+      wake_.wait(lock, [&] {
+        return error_ || static_cast<int>(frames_.size()) < options_.frame_queue_depth;
+      });
+      if (error_) return;
+      frames_.push_back(std::move(tracked));
+      lock.unlock();
+      wake_.notify_all();
+    }
+  } catch (...) {
+    setError(std::current_exception());
+  }
+}
+
+void OnlinePipeline::runEstimator() {
+  std::shared_ptr<const LidarScan> last_scan;
+  try {
+    for (;;) {
+      std::unique_lock lock(mutex_);
+      wake_.wait(lock, [&] { return error_ || !frames_.empty() || frontend_done_; });
+      if (error_ || frames_.empty()) return;  // failed, or the frontend is done and all is out
+      TrackedFrame tracked = std::move(frames_.front());
+      frames_.pop_front();
+      const Timestamp t_ns = tracked.frame->t_ns;
       std::vector<ImuSample> gyro;
       while (!gyro_.empty()) {
         gyro.push_back(gyro_.front());
         gyro_.pop_front();
-        if (gyro.back().t_ns >= image.t_ns) break;
+        if (gyro.back().t_ns >= t_ns) break;
       }
       std::vector<LidarScan> scans;
-      while (!scans_.empty() && scans_.front().t_ns <= image.t_ns) {
+      while (!scans_.empty() && scans_.front().t_ns <= t_ns) {
         scans.push_back(std::move(scans_.front()));
         scans_.pop_front();
       }
       lock.unlock();
+      wake_.notify_all();  // room in the frame queue
 
-      for (const auto& s : gyro) estimator_.addGyro(s);
+      for (const auto& s : gyro) estimator_.addEstimatorGyro(s);
       for (const auto& s : scans) estimator_.addScan(s);
       if (!scans.empty()) last_scan = std::make_shared<const LidarScan>(scans.back());
       OnlineOutput out;
-      out.estimate = estimator_.addImage(image.t_ns, image.grey);
+      const auto dequeued = Clock::now();
+      out.estimate = estimator_.update(std::move(tracked.frame));
       out.latency_ms =
-          std::chrono::duration<double, std::milli>(Clock::now() - image.arrival).count();
-      out.grey = std::move(image.grey);
+          std::chrono::duration<double, std::milli>(Clock::now() - tracked.arrival).count();
+      out.queue_ms = std::chrono::duration<double, std::milli>(dequeued - tracked.tracked).count();
+      out.grey = std::move(tracked.grey);
       out.last_scan = last_scan;
       {
         std::lock_guard guard(mutex_);
@@ -156,24 +217,20 @@ void OnlinePipeline::run() {
       if (callback_) callback_(out);
     }
   } catch (...) {
-    std::lock_guard lock(mutex_);
-    error_ = std::current_exception();
-    stopping_ = true;
-    images_.clear();
+    setError(std::current_exception());
   }
 }
 
 void OnlinePipeline::stop() {
-  bool run_here = false;
   {
     std::lock_guard lock(mutex_);
     if (stopped_) return;
     stopping_ = true;
-    run_here = !started_;
+    if (!started_) startLocked();  // never started: process what was queued
   }
   wake_.notify_all();
-  if (thread_.joinable()) thread_.join();
-  if (run_here) run();  // never started: process what was queued on this thread
+  if (frontend_thread_.joinable()) frontend_thread_.join();
+  if (estimator_thread_.joinable()) estimator_thread_.join();
   std::exception_ptr error;
   std::deque<ImuSample> gyro;
   {
@@ -184,7 +241,7 @@ void OnlinePipeline::stop() {
     scans_.clear();
   }
   if (error) std::rethrow_exception(error);
-  for (const auto& s : gyro) estimator_.addGyro(s);
+  for (const auto& s : gyro) estimator_.addEstimatorGyro(s);
   estimator_.finish();
 }
 

@@ -1,15 +1,19 @@
 // The live API (DESIGN section 1, Kimera-VIO / OKVIS style): feed images, gyro samples and LiDAR
 // scans from any thread and any source, get poses by callback. This class owns the queues and
-// the processing thread; the estimator it drives has no threads and is the same code the offline
-// runner calls.
+// two threads; the estimator it drives has no threads and is the same code the offline runner
+// calls, split in its two stages:
 //
-// Queues: images are bounded (OnlineOptions::image_queue_depth); when the estimator falls behind,
-// the oldest waiting frame is dropped and counted. Gyro samples and scans are never dropped: they
-// wait in unbounded queues and are fed in time order before the image they precede (the gyro up
-// to and including the first sample at or after the frame time, as the offline runner does).
+//   addImage -> [image queue, depth image_queue_depth, oldest dropped] -> frontend thread:
+//   Estimator::track() -> [frame queue, depth frame_queue_depth, the frontend waits when full]
+//   -> estimator thread: Estimator::update() -> callback.
 //
-// Granularity: the Estimator interface does frontend and estimation in one addImage() call, so
-// there is one processing thread; a frontend/backend split would need that interface split.
+// The frontend thread tracks image k+1 while the estimator thread updates with image k. Images
+// are the only measurements dropped (counted) when the pipeline falls behind. Gyro samples and
+// scans are never dropped: every gyro sample goes at once to the frontend's prior source
+// (Estimator::addFrontendGyro) and into an unbounded queue for the estimator thread, which feeds
+// gyro and scans in time order before the frame they precede (the gyro up to and including the
+// first sample at or after the frame time, as the offline runner does). The frontend thread waits
+// (at most gyro_wait_ms) for the gyro sample at or after an image's time before tracking it.
 #pragma once
 
 #include <chrono>
@@ -27,7 +31,8 @@
 namespace ovo::app {
 
 struct OnlineOptions {
-  int image_queue_depth = 2;   // frames waiting for the estimator; beyond it the oldest is dropped
+  int image_queue_depth = 2;   // frames waiting for the frontend; beyond it the oldest is dropped
+  int frame_queue_depth = 2;   // tracked frames waiting for the estimator stage (frontend waits)
   double gyro_wait_ms = 50.0;  // a frame waits at most this long (from addImage) for the gyro
                                // sample at or after its time, once any gyro sample has been seen
 };
@@ -38,13 +43,14 @@ struct OnlineOutput {
   cv::Mat grey;                                // the image that was processed (do not modify)
   std::shared_ptr<const LidarScan> last_scan;  // latest scan fed before it (may be null)
   double latency_ms = 0.0;                     // addImage() -> pose out [ms]
-  int frames_dropped = 0;                      // so far
+  double queue_ms = 0.0;   // of which waiting between the stages (frame queue) [ms]
+  int frames_dropped = 0;  // so far
 };
 
 struct OnlineStats {
   int frames_in = 0;         // images accepted by addImage
-  int frames_processed = 0;  // images the estimator processed
-  int frames_dropped = 0;    // images dropped because the estimator was behind
+  int frames_processed = 0;  // images the estimator stage processed
+  int frames_dropped = 0;    // images dropped because the pipeline was behind
   int rejected = 0;          // measurements refused (time not increasing, after stop)
   long gyro_in = 0, scans_in = 0;
   std::vector<double> latency_ms;  // per processed frame
@@ -54,7 +60,7 @@ struct OnlineStats {
 
 class OnlinePipeline {
  public:
-  /// Called on the processing thread after each frame; keep it short (copy what you need).
+  /// Called on the estimator thread after each frame; keep it short (copy what you need).
   using OutputCallback = std::function<void(const OnlineOutput&)>;
 
   /// `estimator` must outlive the pipeline and must not be used elsewhere until stop().
@@ -63,11 +69,11 @@ class OnlinePipeline {
   OnlinePipeline(const OnlinePipeline&) = delete;
   OnlinePipeline& operator=(const OnlinePipeline&) = delete;
 
-  /// Starts the processing thread (measurements added before are queued, not lost).
+  /// Starts the two threads (measurements added before are queued, not lost).
   void start();
-  /// Processes the frames still queued, feeds the remaining gyro samples and scans, calls
-  /// Estimator::finish() and joins the thread. Idempotent. Rethrows an exception the estimator
-  /// or the callback threw on the processing thread.
+  /// Processes the frames still queued (starting the threads when start() was not called), feeds
+  /// the remaining gyro samples, calls Estimator::finish() and joins the threads. Idempotent.
+  /// Rethrows an exception the estimator or the callback threw on either thread.
   void stop();
   bool running() const;
 
@@ -88,7 +94,15 @@ class OnlinePipeline {
     cv::Mat grey;
     Clock::time_point arrival;
   };
-  void run();
+  struct TrackedFrame {
+    std::unique_ptr<estimator::FrontendFrame> frame;
+    cv::Mat grey;
+    Clock::time_point arrival, tracked;
+  };
+  void startLocked();  // under mutex_
+  void runFrontend();
+  void runEstimator();
+  void setError(std::exception_ptr error);  // stops both threads; stop() rethrows it
   bool gyroReady(const PendingImage& image, Clock::time_point now) const;  // under mutex_
 
   estimator::Estimator& estimator_;
@@ -96,16 +110,18 @@ class OnlinePipeline {
   const OutputCallback callback_;
 
   mutable std::mutex mutex_;
-  std::condition_variable wake_;
+  std::condition_variable wake_;  // every change of the queues or the state below
   std::deque<PendingImage> images_;
+  std::deque<TrackedFrame> frames_;
   std::deque<ImuSample> gyro_;
   std::deque<LidarScan> scans_;
   Timestamp last_image_t_ = 0, last_gyro_t_ = 0, last_scan_t_ = 0;
   bool any_image_ = false, any_gyro_ = false, any_scan_ = false;
   bool started_ = false, stopping_ = false, stopped_ = false;
+  bool frontend_done_ = false;  // the frontend thread has tracked its last image
   OnlineStats stats_;
   std::exception_ptr error_;
-  std::thread thread_;
+  std::thread frontend_thread_, estimator_thread_;
 };
 
 }  // namespace ovo::app

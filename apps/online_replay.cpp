@@ -17,7 +17,7 @@ RealtimeRunResult runRealtime(const io::Dataset& data, estimator::Estimator& est
   OnlinePipeline pipeline(est, options.pipeline, [&](const OnlineOutput& out) {
     estimator::FrameEstimate f = out.estimate;
     f.tracks.clear();
-    result.frames.push_back(std::move(f));  // processing thread only; read after stop()
+    result.frames.push_back(std::move(f));  // estimator thread only; read after stop()
     if (on_output) on_output(out);
   });
 

@@ -25,8 +25,8 @@ struct RealtimeRunResult {
 };
 
 /// Replays `data` into an OnlinePipeline driving `est` on the calling thread (the replay thread;
-/// the pipeline adds its processing thread). on_output runs on the processing thread for every
-/// processed frame (e.g. the viewer); progress gets (frames handed in, total).
+/// the pipeline adds its frontend and estimator threads). on_output runs on the estimator thread
+/// for every processed frame (e.g. the viewer); progress gets (frames handed in, total).
 RealtimeRunResult runRealtime(const io::Dataset& data, estimator::Estimator& est,
                               const RealtimeOptions& options,
                               const OnlinePipeline::OutputCallback& on_output = {},

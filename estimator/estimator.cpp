@@ -7,7 +7,13 @@
 
 namespace ovo::estimator {
 
-std::unique_ptr<Estimator> makeEstimator(const std::string& name, const SensorSetup& setup, const Config& config) {
+void failFrontendFrame(const char* estimator, bool non_null) {
+  if (!non_null) fail("{}: update() got no frame (track() returns one per image)", estimator);
+  fail("{}: update() got a frame tracked by another estimator", estimator);
+}
+
+std::unique_ptr<Estimator> makeEstimator(const std::string& name, const SensorSetup& setup,
+                                         const Config& config) {
   if (name == "vo") return makeVoEstimator(setup, config);
   if (name == "kf") return makeKfEstimator(setup, config);
   if (name == "window") return makeWindowEstimator(setup, config);

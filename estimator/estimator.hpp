@@ -1,12 +1,12 @@
 // The interface every estimator (vo, kf, window) implements. Measurements come in by calls in
-// time order; poses come back by return value. No threads, files or command line here: the
-// offline runner calls it in sequence, the online runner from its threads (DESIGN section 1).
+// time order; poses come back by return value. An image goes through two stages: track() (the
+// frontend) and update() (the estimator), so that an online runner can run them on two threads;
+// addImage() is both in sequence. No threads, files or command line here (DESIGN section 1).
 #pragma once
-
-#include <opencv2/core.hpp>
 
 #include <cstdint>
 #include <memory>
+#include <opencv2/core.hpp>
 #include <optional>
 #include <string>
 #include <vector>
@@ -20,13 +20,13 @@ namespace ovo::estimator {
 /// What the estimator knows about the sensors: camera model, extrinsics and noise figures.
 struct SensorSetup {
   camera::Camera camera;
-  SE3 T_B_C = SE3::Identity();        // camera -> body
-  SE3 T_B_L = SE3::Identity();        // LiDAR -> body
+  SE3 T_B_C = SE3::Identity();  // camera -> body
+  SE3 T_B_L = SE3::Identity();  // LiDAR -> body
   double camera_rate_hz = 20.0;
-  double pixel_sigma = 0.5;           // px, image measurement noise
+  double pixel_sigma = 0.5;                              // px, image measurement noise
   std::optional<double> camera_height_m = std::nullopt;  // above the ground, for ground-plane scale
-  double gyro_noise_density = 1.7e-4;     // rad/s/sqrt(Hz)
-  double gyro_bias_random_walk = 2.0e-5;  // rad/s^2/sqrt(Hz)
+  double gyro_noise_density = 1.7e-4;                    // rad/s/sqrt(Hz)
+  double gyro_bias_random_walk = 2.0e-5;                 // rad/s^2/sqrt(Hz)
   double lidar_range_sigma_m = 0.02;
   bool has_gyro = false;
   bool has_lidar = false;
@@ -43,14 +43,14 @@ struct TrackPx {
 struct FrameEstimate {
   Timestamp t_ns = 0;
   SE3 T_W_B = SE3::Identity();
-  bool tracked = false;          // false: pose held or propagated (lost, standstill without vision)
+  bool tracked = false;  // false: pose held or propagated (lost, standstill without vision)
   bool is_keyframe = false;
-  Vec3 gyro_bias = Vec3::Zero(); // current estimate, rad/s
+  Vec3 gyro_bias = Vec3::Zero();    // current estimate, rad/s
   double scale_source_lidar = 0.0;  // 1 when this frame's scale came from the LiDAR, 0 otherwise
-  std::string status;            // short reason when not tracked ("low_parallax", "too_few_matches", ...)
+  std::string status;  // short reason when not tracked ("low_parallax", "too_few_matches", ...)
   double frontend_ms = 0.0;
   double estimator_ms = 0.0;
-  std::vector<TrackPx> tracks;   // optional (viewer): features of this image on tracks of age >= 2
+  std::vector<TrackPx> tracks;  // optional (viewer): features of this image on tracks of age >= 2
 };
 
 /// Counters an estimator reports at the end of a run (merged into metrics.json).
@@ -58,24 +58,56 @@ struct EstimatorStats {
   int frames = 0;
   int frames_tracked = 0;
   int keyframes = 0;
-  int lidar_scale_frames = 0;      // frames whose scale came from the LiDAR
-  int ground_scale_frames = 0;     // frames that fell back to the ground-plane scale
+  int lidar_scale_frames = 0;   // frames whose scale came from the LiDAR
+  int ground_scale_frames = 0;  // frames that fell back to the ground-plane scale
   int gyro_gaps = 0;
   int tracking_losses = 0;
   std::vector<std::string> notes;  // fallbacks said once ("no gyro: vision-only rotation", ...)
 };
 
+/// The frontend stage's result for one image, handed to the estimator stage. A self-contained
+/// snapshot: the frontend may already be tracking the next image while update() reads it. Each
+/// estimator derives its own (vo/kf: the chain step, window: the tracked bearings).
+struct FrontendFrame {
+  virtual ~FrontendFrame() = default;
+  Timestamp t_ns = 0;
+  double frontend_ms = 0.0;     // wall time of track()
+  std::vector<TrackPx> tracks;  // features of this image on tracks of age >= 2 (viewers)
+};
+
+/// Threads: track() and addFrontendGyro() touch only frontend state and may run on one thread
+/// while update(), addEstimatorGyro(), addScan() and the rest run on another; addFrontendGyro()
+/// may be called from any thread. Each stage sees its own calls in time order.
 class Estimator {
  public:
   virtual ~Estimator() = default;
   virtual std::string name() const = 0;
-  virtual void addGyro(const ImuSample& sample) = 0;
+
+  /// Frontend stage: detection, matching, tracks and relative pose of one grey image (CV_8UC1),
+  /// with the gyro rotation prior from the samples given to addFrontendGyro() and the bias the
+  /// estimator stage last published.
+  virtual std::unique_ptr<FrontendFrame> track(Timestamp t_ns, const cv::Mat& grey) = 0;
+  /// Estimator stage: the body pose at the time of a frame from this estimator's track() (frames
+  /// in the order they were tracked). Throws ovo::Error for a frame of another estimator.
+  virtual FrameEstimate update(std::unique_ptr<FrontendFrame> frame) = 0;
+  /// Both stages in sequence (the offline runner).
+  FrameEstimate addImage(Timestamp t_ns, const cv::Mat& grey) { return update(track(t_ns, grey)); }
+
+  /// Frontend stage's gyro (the matching prior); thread-safe, may run ahead of the estimator.
+  virtual void addFrontendGyro(const ImuSample& /*sample*/) {}
+  /// Estimator stage's gyro, before the frames whose time the sample precedes.
+  virtual void addEstimatorGyro(const ImuSample& sample) = 0;
+  /// Both stages (sequential use).
+  void addGyro(const ImuSample& sample) {
+    addFrontendGyro(sample);
+    addEstimatorGyro(sample);
+  }
+  /// Estimator stage.
   virtual void addScan(const LidarScan& scan) = 0;
-  /// Processes one grey image (CV_8UC1) and returns the pose of the body at its time.
-  virtual FrameEstimate addImage(Timestamp t_ns, const cv::Mat& grey) = 0;
+
   /// Called once after the last measurement (offline refinement may change earlier poses).
   virtual void finish() {}
-  /// Final poses of all frames (after finish(); may differ from what addImage returned).
+  /// Final poses of all frames (after finish(); may differ from what update() returned).
   virtual Trajectory trajectory() const = 0;
   /// Keyframe poses (empty for estimators without keyframes).
   virtual Trajectory keyframes() const { return {}; }
@@ -84,7 +116,22 @@ class Estimator {
   virtual std::vector<std::pair<Timestamp, Vec3>> biasHistory() const { return {}; }
 };
 
+/// Throws the ovo::Error of frontendFrameAs().
+[[noreturn]] void failFrontendFrame(const char* estimator, bool non_null);
+
+/// The estimator's own FrontendFrame type out of update()'s argument; throws ovo::Error when the
+/// frame is null or came from another estimator (a caller's mistake).
+template <typename Frame>
+std::unique_ptr<Frame> frontendFrameAs(std::unique_ptr<FrontendFrame> frame,
+                                       const char* estimator) {
+  auto* typed = dynamic_cast<Frame*>(frame.get());
+  if (!typed) failFrontendFrame(estimator, frame != nullptr);
+  frame.release();
+  return std::unique_ptr<Frame>(typed);
+}
+
 /// Creates "vo", "kf" or "window" from the configuration (throws ovo::Error for unknown names).
-std::unique_ptr<Estimator> makeEstimator(const std::string& name, const SensorSetup& setup, const Config& config);
+std::unique_ptr<Estimator> makeEstimator(const std::string& name, const SensorSetup& setup,
+                                         const Config& config);
 
 }  // namespace ovo::estimator

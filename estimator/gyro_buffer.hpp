@@ -1,8 +1,10 @@
 // Time-ordered store of gyro samples shared by the estimators: hands out the samples around an
-// interval (for preintegration) and drops what no estimator state needs any more.
+// interval (for preintegration) and drops what no estimator state needs any more. FrontendGyro is
+// the frontend stage's thread-safe copy (for the matching prior).
 #pragma once
 
 #include <algorithm>
+#include <mutex>
 #include <span>
 #include <vector>
 
@@ -45,6 +47,41 @@ class GyroBuffer {
 
  private:
   std::vector<ImuSample> samples_;
+};
+
+/// The gyro as the frontend stage sees it: samples fed from any thread (ahead of the estimator
+/// stage) and the bias the estimator stage published last (one frame stale when the stages run
+/// on two threads, current when they run in sequence).
+class FrontendGyro {
+ public:
+  /// What the rotation prior from t0 to t1 needs: GyroBuffer::around(t0, t1) and the bias.
+  struct Window {
+    std::vector<ImuSample> samples;
+    Vec3 bias_radps = Vec3::Zero();
+  };
+
+  bool add(const ImuSample& s) {
+    std::lock_guard lock(mutex_);
+    return buffer_.add(s);
+  }
+  void publishBias(const Vec3& bias_radps) {
+    std::lock_guard lock(mutex_);
+    bias_radps_ = bias_radps;
+  }
+  /// Copies the samples around [t0, t1] and the bias, then forgets the samples before t0 (the
+  /// frontend's frames come in time order, so t0 is never earlier next time).
+  Window take(Timestamp t0_ns, Timestamp t1_ns) {
+    std::lock_guard lock(mutex_);
+    const auto span = buffer_.around(t0_ns, t1_ns);
+    Window w{{span.begin(), span.end()}, bias_radps_};
+    buffer_.dropBefore(t0_ns);
+    return w;
+  }
+
+ private:
+  std::mutex mutex_;
+  GyroBuffer buffer_;
+  Vec3 bias_radps_ = Vec3::Zero();
 };
 
 }  // namespace ovo::estimator

@@ -6,8 +6,10 @@
 #include <chrono>
 #include <cmath>
 #include <deque>
+#include <span>
 
 #include "common/so3.hpp"
+#include "estimator/gyro_buffer.hpp"
 #include "estimator/kf_filter.hpp"
 #include "estimator/lidar_scale.hpp"
 #include "estimator/vo_chain.hpp"
@@ -82,6 +84,40 @@ KfEstimatorOptions readKfEstimatorOptions(const Config& cfg, const SensorSetup& 
 // significant: |x| > scale_deadband and |x| > 3 sqrt(P) (then fully; until |x| falls below half
 // the deadband). Without a camera height the LiDAR scales each step directly (estimateLidarScale on
 // the unit-scale points).
+// The filter's gyro propagation from a frame at t0 to t1 (KfFilter::propagate for the samples up
+// to t1, then KfFilter::propagateTo) with the bias held, as the rotation R_B0_B1 it adds: what
+// the filter predicts for the matcher, from the frontend stage's copy of the gyro. samples: the
+// last one at or before t0 and those after it.
+Mat3 predictGyroRotation(std::span<const ImuSample> samples, Timestamp t0_ns, Timestamp t1_ns,
+                         const Vec3& bias_radps, double max_gap_s) {
+  const Timestamp max_gap_ns = fromSeconds(max_gap_s);
+  Mat3 R_B0_B = Mat3::Identity();
+  const ImuSample* last = nullptr;
+  Timestamp t_now = t0_ns;
+  for (const ImuSample& sample : samples) {
+    if (sample.t_ns > t1_ns) break;
+    if (sample.t_ns > t_now) {
+      const double dt_s = toSeconds(sample.t_ns - t_now);
+      if (last && sample.t_ns - last->t_ns <= max_gap_ns) {
+        // Rate at the midpoint of [t_now, sample.t], linear between the two samples.
+        const double span_ns = static_cast<double>(sample.t_ns - last->t_ns);
+        const double t_mid_ns = 0.5 * static_cast<double>(t_now + sample.t_ns);
+        const double alpha =
+            span_ns > 0.0 ? (t_mid_ns - static_cast<double>(last->t_ns)) / span_ns : 1.0;
+        const Vec3 w = last->gyro_radps + alpha * (sample.gyro_radps - last->gyro_radps);
+        R_B0_B = R_B0_B * so3::exp((w - bias_radps) * dt_s);
+      } else if (!last && sample.t_ns - t_now <= max_gap_ns) {
+        R_B0_B = R_B0_B * so3::exp((sample.gyro_radps - bias_radps) * dt_s);
+      }
+      t_now = sample.t_ns;
+    }
+    last = &sample;
+  }
+  if (t1_ns > t_now && last && t1_ns - last->t_ns <= max_gap_ns)
+    R_B0_B = R_B0_B * so3::exp((last->gyro_radps - bias_radps) * toSeconds(t1_ns - t_now));
+  return R_B0_B;
+}
+
 class KfEstimator final : public Estimator {
  public:
   KfEstimator(const SensorSetup& setup, const Config& config)
@@ -96,6 +132,7 @@ class KfEstimator final : public Estimator {
     use_gyro_ = options_.use_gyro && setup_.has_gyro;
     use_lidar_ = options_.use_lidar && setup_.has_lidar;
     log_c_var_ = options_.scale_sigma0 * options_.scale_sigma0;
+    if (use_lidar_ && height_m_ > 0) chain_.setHistorySpan(fromSeconds(options_.lidar_baseline_s));
     if (!use_gyro_)
       stats_.notes.push_back(
           setup_.has_gyro
@@ -112,7 +149,11 @@ class KfEstimator final : public Estimator {
 
   std::string name() const override { return "kf"; }
 
-  void addGyro(const ImuSample& sample) override {
+  void addFrontendGyro(const ImuSample& sample) override {
+    if (use_gyro_) frontend_gyro_.add(sample);
+  }
+
+  void addEstimatorGyro(const ImuSample& sample) override {
     if (!use_gyro_ || !sample.gyro_radps.allFinite()) return;
     if (!pending_gyro_.empty() && sample.t_ns <= pending_gyro_.back().t_ns) return;
     pending_gyro_.push_back(sample);
@@ -124,24 +165,39 @@ class KfEstimator final : public Estimator {
     while (scans_.size() > 4) scans_.pop_front();
   }
 
-  FrameEstimate addImage(Timestamp t_ns, const cv::Mat& grey) override {
+  std::unique_ptr<FrontendFrame> track(Timestamp t_ns, const cv::Mat& grey) override {
     const auto t0 = std::chrono::steady_clock::now();
+    // Gyro prediction of the camera rotation since the previous frame, for the matcher.
+    std::optional<Mat3> prior;
+    if (use_gyro_ && frontend_last_t_ && t_ns > *frontend_last_t_) {
+      const FrontendGyro::Window w = frontend_gyro_.take(*frontend_last_t_, t_ns);
+      const Mat3 R_Bprev_Bcur = predictGyroRotation(w.samples, *frontend_last_t_, t_ns,
+                                                    w.bias_radps, options_.filter.max_gyro_gap_s);
+      prior = setup_.T_B_C.linear().transpose() * R_Bprev_Bcur.transpose() * setup_.T_B_C.linear();
+    }
+    if (!frontend_last_t_ || t_ns > *frontend_last_t_) frontend_last_t_ = t_ns;
+    auto frame = std::make_unique<ChainFrame>();
+    frame->t_ns = t_ns;
+    frame->step = chain_.step(t_ns, grey, prior);
+    frame->tracks = chain_.currentTracks();
+    frame->frontend_ms =
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    return frame;
+  }
+
+  FrameEstimate update(std::unique_ptr<FrontendFrame> frame_in) override {
+    const auto t0 = std::chrono::steady_clock::now();
+    const auto frame = frontendFrameAs<ChainFrame>(std::move(frame_in), "kf");
+    const ChainStep& s = frame->step;
+    const Timestamp t_ns = frame->t_ns;
     FrameEstimate f;
     f.t_ns = t_ns;
+    f.frontend_ms = frame->frontend_ms;
+    f.tracks = std::move(frame->tracks);
     ++stats_.frames;
 
     if (!filter_.initialised()) filter_.initialise(t_ns);
     feedGyroUntil(t_ns);
-
-    // Gyro prediction of the camera rotation since the previous frame, for the matcher.
-    std::optional<Mat3> prior;
-    if (use_gyro_ && !trajectory_.empty()) {
-      const Mat3 R_Bprev_Bcur =
-          trajectory_.back().T_W_B.linear().transpose() * predictedRotation(t_ns);
-      prior = setup_.T_B_C.linear().transpose() * R_Bprev_Bcur.transpose() * setup_.T_B_C.linear();
-    }
-    const ChainStep s = chain_.step(t_ns, grey, prior);
-    f.frontend_ms = s.frontend_ms;
     SE3 T_W_B_base = SE3::Identity();  // the uncorrected (ground-plane scale) chain
 
     if (s.first_frame || trajectory_.empty()) {
@@ -205,6 +261,7 @@ class KfEstimator final : public Estimator {
       f.status = "non_finite";
     }
     f.gyro_bias = filter_.gyroBias();
+    frontend_gyro_.publishBias(f.gyro_bias);
     if (f.tracked) ++stats_.frames_tracked;
     trajectory_.push_back({t_ns, f.T_W_B});
     base_trajectory_.push_back({t_ns, T_W_B_base});
@@ -214,10 +271,8 @@ class KfEstimator final : public Estimator {
     while (!base_trajectory_.empty() &&
            toSeconds(t_ns - base_trajectory_.front().t_ns) > 2.0 * options_.lidar_baseline_s + 1.0)
       base_trajectory_.pop_front();
-    f.estimator_ms = std::max(
-        0.0,
-        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count() -
-            s.frontend_ms);
+    f.estimator_ms =
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     return f;
   }
 
@@ -249,13 +304,6 @@ class KfEstimator final : public Estimator {
       filter_.propagate(g);
       pending_gyro_.pop_front();
     }
-  }
-
-  // The filter's rotation propagated to t without changing the filter (a copy).
-  Mat3 predictedRotation(Timestamp t_ns) const {
-    KfFilter copy = filter_;
-    copy.propagateTo(t_ns);
-    return copy.R_W_B();
   }
 
   // {scale of this step, scale of the uncorrected chain}; see the model above the class.
@@ -323,16 +371,12 @@ class KfEstimator final : public Estimator {
     const LidarScan* scan = scanAt(t_ns);
     if (!scan) return;
     const SE3 T_W_Ccur = base_trajectory_.back().T_W_B * setup_.T_B_C;
-    const frontend::TrackManager& tracks = chain_.frontend().tracks();
-    const Timestamp max_span_ns = fromSeconds(options_.lidar_baseline_s);
     std::vector<TrackScaleFeature> features;
     // This step's inliers (tracks that agree with the epipolar geometry since the reference).
-    for (std::size_t i = 0; i < s.track_ids.size() && i < s.px_all_cur.size(); ++i) {
-      const frontend::Track* track = tracks.find(s.track_ids[i]);
-      if (!track) continue;
-      // The oldest observation within the baseline span whose pose is known.
-      for (const auto& obs : track->history) {
-        if (t_ns - obs.t_ns > max_span_ns || obs.t_ns >= t_ns) continue;
+    for (std::size_t i = 0; i < s.track_history.size() && i < s.px_all_cur.size(); ++i) {
+      // The oldest observation within the baseline span (ChainStep::track_history) whose pose
+      // is known.
+      for (const auto& obs : s.track_history[i]) {
         const auto T_W_Bold = basePoseAt(obs.t_ns);
         if (!T_W_Bold) continue;
         const SE3 T_Cold_Ccur = (*T_W_Bold * setup_.T_B_C).inverse() * T_W_Ccur;
@@ -384,7 +428,11 @@ class KfEstimator final : public Estimator {
 
   SensorSetup setup_;
   KfEstimatorOptions options_;
+  // Frontend stage.
   VoChain chain_;
+  FrontendGyro frontend_gyro_;
+  std::optional<Timestamp> frontend_last_t_;  // the frontend's previous image
+  // Estimator stage.
   KfFilter filter_;
   Vec3 up_C_;
   SE3 T_C_L_;

@@ -111,6 +111,16 @@ ChainStep VoChain::step(Timestamp t_ns, const cv::Mat& grey,
     s.track_ids.push_back(ids[i]);
   }
   s.px_all_cur = s.px_cur;
+  if (history_span_ns_ > 0) {
+    s.track_history.resize(s.track_ids.size());
+    for (std::size_t i = 0; i < s.track_ids.size(); ++i) {
+      const frontend::Track* track = tracks.find(s.track_ids[i]);
+      if (!track) continue;
+      for (const auto& obs : track->history)
+        if (t_ns - obs.t_ns <= history_span_ns_ && obs.t_ns < t_ns)
+          s.track_history[i].push_back({obs.t_ns, obs.bearing_C});
+    }
+  }
   if (s.status == Status::kOk) {
     std::vector<std::uint8_t> valid;
     std::vector<Vec3> pts;
@@ -126,6 +136,13 @@ ChainStep VoChain::step(Timestamp t_ns, const cv::Mat& grey,
     s.px_cur = std::move(px);
   }
   return s;
+}
+
+std::vector<TrackPx> VoChain::currentTracks() const {
+  std::vector<TrackPx> out;
+  for (const auto& obs : frontend_.tracks().currentObservations())
+    if (obs.age >= 2) out.push_back({obs.track_id, obs.px, obs.age});
+  return out;
 }
 
 std::optional<Vec3> translationGivenRotation(const Mat3& R_cur_prev,

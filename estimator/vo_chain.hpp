@@ -14,6 +14,12 @@
 
 namespace ovo::estimator {
 
+/// An earlier sighting of a track (a copy of the frontend's track history).
+struct TrackSighting {
+  Timestamp t_ns = 0;
+  Vec3 bearing_C = Vec3::Zero();
+};
+
 /// One frame's motion relative to the chain's reference frame (the previous frame, or an older one
 /// kept while the parallax is too small, as libviso2 does), in the camera frame, up to scale.
 /// "prev" in the names below is that reference frame.
@@ -30,6 +36,9 @@ struct ChainStep {
   std::vector<Vec3> bearings_prev, bearings_cur;  // the inlier bearing pairs
   std::vector<Vec2> px_all_cur;                   // current pixel of every inlier pair (same order)
   std::vector<std::uint64_t> track_ids;  // frontend track of every inlier pair (same order)
+  // Sightings of every inlier track (same order) before this frame and at most
+  // VoChain::setHistorySpan() older, oldest first: the estimator stage's copy of the history.
+  std::vector<std::vector<TrackSighting>> track_history;
   int matches = 0;
   double frontend_ms = 0.0;
 };
@@ -42,15 +51,26 @@ struct VoChainOptions {
 };
 VoChainOptions readVoChainOptions(const Config& cfg);  // keys under "vo."
 
+/// The frontend stage's result of the vo and kf estimators: one ChainStep.
+struct ChainFrame : FrontendFrame {
+  ChainStep step;
+};
+
 /// Turns images into ChainSteps, measuring each frame from the reference frame through the
 /// frontend's tracks (the reference is kept while the parallax is below ransac.min_parallax_deg).
+/// All of it is frontend-stage work: the steps are self-contained snapshots.
 class VoChain {
  public:
   VoChain(const camera::Camera& camera, const Config& config);
   /// Processes one image; R_cur_prev_prior (camera frame) helps matching in fast turns.
   ChainStep step(Timestamp t_ns, const cv::Mat& grey,
                  const std::optional<Mat3>& R_cur_prev_prior = std::nullopt);
-  frontend::Frontend& frontend() { return frontend_; }
+  /// Copy the inlier tracks' sightings up to this much older than the frame into each step
+  /// (ChainStep::track_history); 0 (default): none.
+  void setHistorySpan(Timestamp span_ns) { history_span_ns_ = span_ns; }
+  /// The features of the last image on tracks of age >= 2 (viewers).
+  std::vector<TrackPx> currentTracks() const;
+  const frontend::Frontend& frontend() const { return frontend_; }
 
  private:
   VoChainOptions options_;
@@ -58,6 +78,7 @@ class VoChain {
   frontend::RelativePoseEstimator relative_pose_;
   std::int64_t ref_frame_ = -1;
   Timestamp ref_t_ns_ = 0;
+  Timestamp history_span_ns_ = 0;
 };
 
 /// Translation direction for a known rotation: t minimises sum (b_c . (t x R b_p))^2 over the

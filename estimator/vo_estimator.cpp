@@ -1,9 +1,9 @@
 #include "estimator/vo_estimator.hpp"
 
+#include <spdlog/spdlog.h>
+
 #include <chrono>
 #include <cmath>
-
-#include <spdlog/spdlog.h>
 
 #include "estimator/vo_chain.hpp"
 
@@ -26,27 +26,46 @@ VoOptions readVoOptions(const Config& cfg) {
   return o;
 }
 
+double msSince(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+}
+
 class VoEstimator final : public Estimator {
  public:
   VoEstimator(const SensorSetup& setup, const Config& config)
       : setup_(setup), options_(readVoOptions(config)), chain_(setup.camera, config) {
     up_C_ = setup_.T_B_C.linear().transpose() * Vec3::UnitZ();
-    height_m_ = options_.camera_height_m > 0 ? options_.camera_height_m : setup_.camera_height_m.value_or(0.0);
-    if (height_m_ <= 0) stats_.notes.push_back("vo: no camera height known: translation kept at unit scale per frame");
+    height_m_ = options_.camera_height_m > 0 ? options_.camera_height_m
+                                             : setup_.camera_height_m.value_or(0.0);
+    if (height_m_ <= 0)
+      stats_.notes.push_back(
+          "vo: no camera height known: translation kept at unit scale per frame");
     if (setup_.has_gyro) stats_.notes.push_back("vo: the gyro is not used by the plain chain");
     if (setup_.has_lidar) stats_.notes.push_back("vo: the LiDAR is not used by the plain chain");
   }
 
   std::string name() const override { return "vo"; }
-  void addGyro(const ImuSample&) override {}
+  void addEstimatorGyro(const ImuSample&) override {}
   void addScan(const LidarScan&) override {}
 
-  FrameEstimate addImage(Timestamp t_ns, const cv::Mat& grey) override {
+  std::unique_ptr<FrontendFrame> track(Timestamp t_ns, const cv::Mat& grey) override {
     const auto t0 = std::chrono::steady_clock::now();
-    const ChainStep s = chain_.step(t_ns, grey);
+    auto frame = std::make_unique<ChainFrame>();
+    frame->t_ns = t_ns;
+    frame->step = chain_.step(t_ns, grey);
+    frame->tracks = chain_.currentTracks();
+    frame->frontend_ms = msSince(t0);
+    return frame;
+  }
+
+  FrameEstimate update(std::unique_ptr<FrontendFrame> frame_in) override {
+    const auto t0 = std::chrono::steady_clock::now();
+    const auto frame = frontendFrameAs<ChainFrame>(std::move(frame_in), "vo");
+    const ChainStep& s = frame->step;
+    const Timestamp t_ns = frame->t_ns;
     FrameEstimate f;
     f.t_ns = t_ns;
-    f.frontend_ms = s.frontend_ms;
+    f.frontend_ms = frame->frontend_ms;
     ++stats_.frames;
     if (s.first_frame || trajectory_.empty()) {
       f.T_W_B = SE3::Identity();
@@ -57,7 +76,8 @@ class VoEstimator final : public Estimator {
       const SE3 T_prev = poseAtOrNewest(trajectory_, s.ref_t_ns);
       const double dt = toSeconds(t_ns - s.ref_t_ns);
       spdlog::debug("vo t={} status={} pairs={} inliers={} points={} ref_dt={:.3f}", t_ns,
-                    frontend::toString(s.status), s.matches, s.bearings_cur.size(), s.points_cur_unit.size(), dt);
+                    frontend::toString(s.status), s.matches, s.bearings_cur.size(),
+                    s.points_cur_unit.size(), dt);
       if (s.status == Status::kOk) {
         // Without a ground-plane fit this step, the last speed carries on (steps may span
         // several frames while a low-parallax reference is kept).
@@ -92,12 +112,9 @@ class VoEstimator final : public Estimator {
       f.status = "non_finite";
     }
     if (f.tracked) ++stats_.frames_tracked;
-    for (const auto& obs : chain_.frontend().tracks().currentObservations())
-      if (obs.age >= 2) f.tracks.push_back({obs.track_id, obs.px, obs.age});
+    f.tracks = std::move(frame->tracks);
     trajectory_.push_back({t_ns, f.T_W_B});
-    f.estimator_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count() -
-                     s.frontend_ms;
-    if (f.estimator_ms < 0) f.estimator_ms = 0;
+    f.estimator_ms = msSince(t0);
     return f;
   }
 
@@ -105,7 +122,6 @@ class VoEstimator final : public Estimator {
   EstimatorStats stats() const override { return stats_; }
 
  private:
-
   SensorSetup setup_;
   VoOptions options_;
   VoChain chain_;

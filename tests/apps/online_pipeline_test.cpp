@@ -1,6 +1,7 @@
-// The threaded online pipeline with a scripted estimator: measurement order, dropping the oldest
-// frames when behind, waiting for the gyro, latency, errors and shutdown. Blocking is controlled
-// by gates, never by timing assumptions.
+// The threaded online pipeline with a scripted estimator: measurement order, the frontend and
+// estimator stages on their own threads, dropping the oldest frames when behind, waiting for the
+// gyro, latency, errors and shutdown. Blocking is controlled by gates, never by timing
+// assumptions.
 #include "apps/online_pipeline.hpp"
 
 #include <gtest/gtest.h>
@@ -17,25 +18,46 @@ namespace {
 
 using namespace std::chrono_literals;
 
-// Records every call in order; addImage can be held at a gate and can throw.
+// Records every estimator-stage call in order ('g' gyro, 's' scan, 'i' image update) and the
+// frontend stage's separately; track() and update() can each be held at a gate and can throw.
 class ScriptedEstimator final : public estimator::Estimator {
  public:
   struct Call {
-    char kind;  // 'g' gyro, 's' scan, 'i' image
+    char kind;  // 'g' gyro, 's' scan, 'i' image (update)
     Timestamp t_ns;
   };
 
   std::string name() const override { return "scripted"; }
-  void addGyro(const ImuSample& s) override { record('g', s.t_ns); }
+  void addFrontendGyro(const ImuSample& s) override {
+    std::lock_guard lock(mutex_);
+    frontend_gyro_.push_back(s.t_ns);
+  }
+  void addEstimatorGyro(const ImuSample& s) override { record('g', s.t_ns); }
   void addScan(const LidarScan& s) override { record('s', s.t_ns); }
-  estimator::FrameEstimate addImage(Timestamp t_ns, const cv::Mat& grey) override {
+  std::unique_ptr<estimator::FrontendFrame> track(Timestamp t_ns, const cv::Mat& grey) override {
+    {
+      std::unique_lock lock(mutex_);
+      tracked_.push_back(t_ns);
+      last_type_ = grey.type();
+      ++images_entered_;
+      // The frontend saw the gyro sample at or after the image (the pipeline waits for it).
+      gyro_seen_at_track_.push_back(frontend_gyro_.empty() ? -1 : frontend_gyro_.back());
+      changed_.notify_all();
+      changed_.wait(lock, [&] { return gate_open_; });
+    }
+    if (throw_in_track_at_ == t_ns) fail("scripted frontend failure at {}", t_ns);
+    auto frame = std::make_unique<estimator::FrontendFrame>();
+    frame->t_ns = t_ns;
+    return frame;
+  }
+  estimator::FrameEstimate update(std::unique_ptr<estimator::FrontendFrame> frame) override {
+    const Timestamp t_ns = frame->t_ns;
     record('i', t_ns);
     {
       std::unique_lock lock(mutex_);
-      last_type_ = grey.type();
-      ++images_entered_;
+      ++updates_entered_;
       changed_.notify_all();
-      changed_.wait(lock, [&] { return gate_open_; });
+      changed_.wait(lock, [&] { return update_gate_open_; });
     }
     if (work_ > 0ms) std::this_thread::sleep_for(work_);
     if (throw_at_ == t_ns) fail("scripted failure at {}", t_ns);
@@ -58,17 +80,48 @@ class ScriptedEstimator final : public estimator::Estimator {
     gate_open_ = true;
     changed_.notify_all();
   }
+  void closeUpdateGate() {
+    std::lock_guard lock(mutex_);
+    update_gate_open_ = false;
+  }
+  void openUpdateGate() {
+    std::lock_guard lock(mutex_);
+    update_gate_open_ = true;
+    changed_.notify_all();
+  }
+  // Images that entered track() (the frontend stage) and update() (the estimator stage).
   void waitImagesEntered(int n) {
     std::unique_lock lock(mutex_);
     ASSERT_TRUE(changed_.wait_for(lock, 10s, [&] { return images_entered_ >= n; }));
+  }
+  void waitUpdatesEntered(int n) {
+    std::unique_lock lock(mutex_);
+    ASSERT_TRUE(changed_.wait_for(lock, 10s, [&] { return updates_entered_ >= n; }));
+  }
+  int updatesEntered() const {
+    std::lock_guard lock(mutex_);
+    return updates_entered_;
   }
   std::vector<Call> calls() const {
     std::lock_guard lock(mutex_);
     return calls_;
   }
+  std::vector<Timestamp> tracked() const {
+    std::lock_guard lock(mutex_);
+    return tracked_;
+  }
+  std::vector<Timestamp> frontendGyro() const {
+    std::lock_guard lock(mutex_);
+    return frontend_gyro_;
+  }
+  std::vector<Timestamp> gyroSeenAtTrack() const {
+    std::lock_guard lock(mutex_);
+    return gyro_seen_at_track_;
+  }
 
   std::chrono::milliseconds work_{0};
   Timestamp throw_at_ = -1;
+  Timestamp throw_in_track_at_ = -1;
   int finish_calls_ = 0;
   int last_type_ = -1;
 
@@ -79,9 +132,10 @@ class ScriptedEstimator final : public estimator::Estimator {
   }
   mutable std::mutex mutex_;
   std::condition_variable changed_;
-  bool gate_open_ = true;
-  int images_entered_ = 0;
+  bool gate_open_ = true, update_gate_open_ = true;
+  int images_entered_ = 0, updates_entered_ = 0;
   std::vector<Call> calls_;
+  std::vector<Timestamp> tracked_, frontend_gyro_, gyro_seen_at_track_;
 };
 
 cv::Mat greyImage() { return cv::Mat(24, 32, CV_8UC1, cv::Scalar(100)); }
@@ -92,6 +146,7 @@ TEST(OnlinePipeline, FeedsGyroAndScansInTimeOrderBeforeTheImageTheyPrecede) {
   ScriptedEstimator est;
   OnlineOptions options;
   options.image_queue_depth = 1000;  // nothing dropped here
+  options.gyro_wait_ms = 60'000;     // every image waits for the gyro sample after it
   std::vector<Timestamp> outputs;
   OnlinePipeline pipeline(est, options,
                           [&](const OnlineOutput& o) { outputs.push_back(o.estimate.t_ns); });
@@ -128,8 +183,14 @@ TEST(OnlinePipeline, FeedsGyroAndScansInTimeOrderBeforeTheImageTheyPrecede) {
       EXPECT_GT(last_scan + 100 * kMs, c.t_ns) << "a scan before image " << c.t_ns << " is missing";
     }
   }
-  EXPECT_EQ(gyro.size(), 201u);  // every sample exactly once, the tail after stop()
+  EXPECT_EQ(gyro.size(), 201u);                // every sample exactly once, the tail after stop()
+  EXPECT_EQ(est.frontendGyro().size(), 201u);  // and to the frontend's prior source
   EXPECT_EQ(images.size(), 20u);
+  EXPECT_EQ(est.tracked(), images);
+  const auto seen = est.gyroSeenAtTrack();
+  for (std::size_t k = 0; k < images.size(); ++k)
+    EXPECT_GE(seen[k], images[k]) << "the frontend tracked image " << images[k]
+                                  << " without the gyro";
   EXPECT_EQ(outputs, images);
   EXPECT_EQ(est.finish_calls_, 1);
   const OnlineStats s = pipeline.stats();
@@ -138,6 +199,60 @@ TEST(OnlinePipeline, FeedsGyroAndScansInTimeOrderBeforeTheImageTheyPrecede) {
   EXPECT_EQ(s.frames_dropped, 0);
   EXPECT_EQ(s.gyro_in, 201);
   EXPECT_EQ(s.scans_in, 10);
+}
+
+TEST(OnlinePipeline, TheFrontendTracksTheNextImageWhileTheEstimatorUpdates) {
+  ScriptedEstimator est;
+  est.closeUpdateGate();
+  OnlinePipeline pipeline(est, {}, {});
+  pipeline.start();
+  pipeline.addImage(0, greyImage());
+  est.waitUpdatesEntered(1);  // image 0 is in update(), held
+  pipeline.addImage(50 * kMs, greyImage());
+  pipeline.addImage(100 * kMs, greyImage());
+  est.waitImagesEntered(3);  // ... while the frontend thread tracks images 1 and 2
+  EXPECT_EQ(est.updatesEntered(), 1);
+  est.openUpdateGate();
+  pipeline.stop();
+  EXPECT_EQ(pipeline.stats().frames_processed, 3);
+  EXPECT_EQ(pipeline.stats().frames_dropped, 0);
+}
+
+TEST(OnlinePipeline, DropsOnlyCameraFramesWhenTheEstimatorStageIsBehind) {
+  ScriptedEstimator est;
+  OnlineOptions options;
+  options.image_queue_depth = 2;
+  options.frame_queue_depth = 2;
+  std::vector<Timestamp> outputs;
+  OnlinePipeline pipeline(est, options,
+                          [&](const OnlineOutput& o) { outputs.push_back(o.estimate.t_ns); });
+  est.closeUpdateGate();
+  pipeline.start();
+  pipeline.addImage(0, greyImage());
+  est.waitUpdatesEntered(1);  // image 0 held in update()
+  // Images 1, 2 go to the frame queue; image 3 is tracked and waits for room there.
+  for (int i = 1; i <= 3; ++i) {
+    pipeline.addImage(i * 50 * kMs, greyImage());
+    est.waitImagesEntered(i + 1);
+  }
+  for (int i = 4; i < 20; ++i) {
+    pipeline.addGyro({i * 50 * kMs, Vec3::Zero(), Vec3::Zero()});
+    pipeline.addImage(i * 50 * kMs, greyImage());
+  }
+  est.openUpdateGate();
+  pipeline.stop();
+
+  // 4..17 dropped before the frontend, oldest first; every gyro sample reached both stages.
+  EXPECT_EQ(outputs, (std::vector<Timestamp>{0, 50 * kMs, 100 * kMs, 150 * kMs, 18 * 50 * kMs,
+                                             19 * 50 * kMs}));
+  const OnlineStats s = pipeline.stats();
+  EXPECT_EQ(s.frames_in, 20);
+  EXPECT_EQ(s.frames_processed, 6);
+  EXPECT_EQ(s.frames_dropped, 14);
+  int gyro_calls = 0;
+  for (const auto& c : est.calls()) gyro_calls += c.kind == 'g';
+  EXPECT_EQ(gyro_calls, 16);
+  EXPECT_EQ(est.frontendGyro().size(), 16u);
 }
 
 TEST(OnlinePipeline, DropsTheOldestWaitingFramesWhenBehindAndCountsThem) {
@@ -271,6 +386,18 @@ TEST(OnlinePipeline, ConvertsColourToGreyAndRefusesOtherPixelTypes) {
   EXPECT_THROW(pipeline.addImage(3, cv::Mat()), Error);
   pipeline.stop();
   EXPECT_EQ(est.last_type_, CV_8UC1);
+}
+
+TEST(OnlinePipeline, StopRethrowsWhatTheFrontendThrew) {
+  ScriptedEstimator est;
+  est.throw_in_track_at_ = 2;
+  OnlinePipeline pipeline(est, {}, {});
+  pipeline.start();
+  pipeline.addImage(1, greyImage());
+  pipeline.addImage(2, greyImage());
+  pipeline.addImage(3, greyImage());
+  EXPECT_THROW(pipeline.stop(), Error);
+  EXPECT_EQ(est.finish_calls_, 0);
 }
 
 TEST(OnlinePipeline, StopRethrowsWhatTheEstimatorThrew) {

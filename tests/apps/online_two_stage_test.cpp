@@ -1,0 +1,151 @@
+// The estimators' two stages (track() on the frontend thread, update() on the estimator thread)
+// on real data: the same poses as addImage() when run in sequence, when the frontend runs one
+// image ahead (vo, which has no gyro prior), and through the two-thread pipeline fed one frame at
+// a time (with the gyro prior and the bias published between the stages).
+#include <gtest/gtest.h>
+
+#include <condition_variable>
+#include <mutex>
+
+#include "apps/offline_runner.hpp"
+#include "apps/online_pipeline.hpp"
+#include "common/config.hpp"
+#include "common/error.hpp"
+#include "estimator/estimator.hpp"
+#include "io/dataset.hpp"
+#include "tests/apps/online_test_data.hpp"
+
+namespace ovo::app {
+namespace {
+
+namespace fs = std::filesystem;
+
+// The dataset with its first n images (and the gyro and scans up to the last of them).
+io::Dataset firstImages(io::Dataset data, std::size_t n) {
+  if (data.images.size() > n) data.images.resize(n);
+  const Timestamp t_end = data.images.back().t_ns + 100'000'000;
+  std::erase_if(data.imu, [&](const ImuSample& s) { return s.t_ns > t_end; });
+  std::erase_if(data.scans, [&](const LidarScan& s) { return s.t_ns > t_end; });
+  return data;
+}
+
+std::unique_ptr<estimator::Estimator> make(const std::string& name, const io::Dataset& data) {
+  return estimator::makeEstimator(name, sensorSetupFrom(data), Config());
+}
+
+void expectSamePoses(const Trajectory& a, const Trajectory& b) {
+  ASSERT_EQ(a.size(), b.size());
+  for (std::size_t k = 0; k < a.size(); ++k) {
+    EXPECT_EQ(a[k].t_ns, b[k].t_ns);
+    EXPECT_TRUE(a[k].T_W_B.matrix() == b[k].T_W_B.matrix()) << "frame " << k << ":\n"
+                                                            << a[k].T_W_B.matrix() << "\nagainst\n"
+                                                            << b[k].T_W_B.matrix();
+  }
+}
+
+// The poses update() returned, in order.
+Trajectory returned(const std::vector<estimator::FrameEstimate>& frames) {
+  Trajectory out;
+  for (const auto& f : frames) out.push_back({f.t_ns, f.T_W_B});
+  return out;
+}
+
+// Feeds the pipeline like a live source, each image only after the previous pose came out (so
+// nothing is dropped and the bias reaching the frontend is never stale).
+std::vector<estimator::FrameEstimate> runPipelineSlowly(const io::Dataset& data,
+                                                        estimator::Estimator& est,
+                                                        OnlineStats* stats) {
+  std::mutex m;
+  std::condition_variable cv;
+  std::vector<estimator::FrameEstimate> out;
+  OnlinePipeline pipeline(est, {}, [&](const OnlineOutput& o) {
+    std::lock_guard lock(m);
+    out.push_back(o.estimate);
+    cv.notify_all();
+  });
+  pipeline.start();
+  std::size_t next_imu = 0, next_scan = 0;
+  for (std::size_t i = 0; i < data.images.size(); ++i) {
+    const Timestamp t = data.images[i].t_ns;
+    while (next_imu < data.imu.size()) {
+      const bool past = data.imu[next_imu].t_ns >= t;
+      pipeline.addGyro(data.imu[next_imu++]);
+      if (past) break;
+    }
+    while (next_scan < data.scans.size() && data.scans[next_scan].t_ns <= t)
+      pipeline.addScan(data.scans[next_scan++]);
+    pipeline.addImage(t, io::loadImageGrey(data.images[i]));
+    std::unique_lock lock(m);
+    EXPECT_TRUE(cv.wait_for(lock, std::chrono::seconds(60), [&] { return out.size() == i + 1; }));
+  }
+  while (next_imu < data.imu.size()) pipeline.addGyro(data.imu[next_imu++]);
+  pipeline.stop();
+  *stats = pipeline.stats();
+  return out;
+}
+
+TEST(OnlineTwoStage, VoGivesTheSamePosesWhenTheFrontendRunsOneImageAhead) {
+  OVO_REQUIRE_DATA("kitti07-first160/image_0/000000.png");
+  const io::Dataset data = firstImages(io::loadDataset(test::sharedData("kitti07-first160")), 25);
+  auto reference = make("vo", data);
+  const OfflineRunResult offline = runOffline(data, *reference);
+
+  // track(k + 1) before update(k), as the two threads may interleave.
+  auto est = make("vo", data);
+  std::vector<estimator::FrameEstimate> frames;
+  std::unique_ptr<estimator::FrontendFrame> pending;
+  for (const auto& entry : data.images) {
+    auto tracked = est->track(entry.t_ns, io::loadImageGrey(entry));
+    if (pending) frames.push_back(est->update(std::move(pending)));
+    pending = std::move(tracked);
+  }
+  frames.push_back(est->update(std::move(pending)));
+  est->finish();
+
+  expectSamePoses(returned(frames), returned(offline.frames));
+  expectSamePoses(est->trajectory(), reference->trajectory());
+  int moved = 0;
+  for (const auto& f : frames) moved += f.T_W_B.translation().norm() > 0.5;
+  EXPECT_GT(moved, 10);  // the car drives: a real trajectory, not identities
+}
+
+TEST(OnlineTwoStage, UpdateRefusesAFrameTrackedByAnotherEstimator) {
+  OVO_REQUIRE_DATA("kitti07-first160/image_0/000000.png");
+  const io::Dataset data = firstImages(io::loadDataset(test::sharedData("kitti07-first160")), 1);
+  auto vo = make("vo", data);
+  auto window = make("window", data);
+  const cv::Mat grey = io::loadImageGrey(data.images.front());
+  EXPECT_THROW(window->update(vo->track(data.images.front().t_ns, grey)), Error);
+  EXPECT_THROW(vo->update(nullptr), Error);
+}
+
+// EuRoC V1_01 (real gyro, pinhole camera): kf and window use the gyro prior in track() and
+// publish the bias from update(); fed one frame at a time, the two threads give the offline poses.
+class OnlineTwoStageGyro : public ::testing::TestWithParam<std::string> {};
+
+TEST_P(OnlineTwoStageGyro, PipelineFedOneFrameAtATimeGivesTheOfflinePoses) {
+  OVO_REQUIRE_DATA("euroc-v101-micro/mav0/cam0/sensor.yaml");
+  const io::Dataset data = firstImages(io::loadDataset(test::sharedData("euroc-v101-micro")), 30);
+  ASSERT_FALSE(data.imu.empty());
+  auto reference = make(GetParam(), data);
+  const OfflineRunResult offline = runOffline(data, *reference);
+
+  auto est = make(GetParam(), data);
+  OnlineStats stats;
+  const auto frames = runPipelineSlowly(data, *est, &stats);
+  EXPECT_EQ(stats.frames_processed, 30);
+  EXPECT_EQ(stats.frames_dropped, 0);
+  expectSamePoses(returned(frames), returned(offline.frames));
+  expectSamePoses(est->trajectory(), reference->trajectory());
+  EXPECT_EQ(frames.back().gyro_bias, offline.frames.back().gyro_bias);
+  // kf estimates a bias from the first frames on (a real gyro's is not zero); the window keeps
+  // its prior until it initialises, which this static clip does not let it do.
+  if (GetParam() == "kf") {
+    EXPECT_GT(frames.back().gyro_bias.norm(), 0.0);
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(Estimators, OnlineTwoStageGyro, ::testing::Values("kf", "window"));
+
+}  // namespace
+}  // namespace ovo::app
