@@ -1,5 +1,6 @@
 // RANSAC benchmarks (issue 5): whole relative-pose RANSAC per backend, the scoring alone per
-// backend, a plain Eigen scoring loop as the reference, and the hypothesis generation.
+// backend, a plain Eigen scoring loop as the reference, the hypothesis generation, and OpenGV's
+// 8-point RANSAC as the peer when libopengv-dev is installed.
 // Problem: wide-angle two-view bearings (up to 100 degrees off axis), 30 % outliers, 0.5 px noise
 // at 305 px/rad, 2000 fixed hypotheses. Run: build/ovo_bench --benchmark_filter='BM_Ransac'
 #include <benchmark/benchmark.h>
@@ -12,9 +13,16 @@
 #include "frontend/essential.hpp"
 #include "frontend/ransac.hpp"
 #include "frontend/relative_pose.hpp"
+#include "gpu/hypotheses.hpp"
 #include "gpu/opencl_context.hpp"
 #include "gpu/scoring.hpp"
 #include "tests/gpu/two_view_scene.hpp"
+
+#if OVO_HAVE_OPENGV
+#include <opengv/relative_pose/CentralRelativeAdapter.hpp>
+#include <opengv/sac/Ransac.hpp>
+#include <opengv/sac_problems/relative_pose/CentralRelativePoseSacProblem.hpp>
+#endif
 
 namespace {
 
@@ -55,20 +63,36 @@ SoA toSoA(const test::TwoViewScene& s) {
   return out;
 }
 
+struct SoAd {
+  std::vector<double> prev, cur;
+  gpu::BearingsSoA view() const {
+    return {prev.data(), cur.data(), static_cast<int>(prev.size() / 3)};
+  }
+};
+
+SoAd toSoAd(const test::TwoViewScene& s) {
+  const std::size_t n = s.b_prev.size();
+  SoAd out{std::vector<double>(3 * n), std::vector<double>(3 * n)};
+  for (std::size_t i = 0; i < n; ++i)
+    for (int r = 0; r < 3; ++r) {
+      out.prev[r * n + i] = s.b_prev[i](r);
+      out.cur[r * n + i] = s.b_cur[i](r);
+    }
+  return out;
+}
+
 std::vector<float> hypotheses(const test::TwoViewScene& s) {
   std::vector<float> E(9 * kHypotheses, 0.0f);
-  const int n = static_cast<int>(s.b_prev.size());
-  for (int h = 0; h < kHypotheses; ++h) {
-    const auto idx = frontend::sampleIndices(42, h, n);
-    std::array<Vec3, 8> bp, bc;
-    for (int j = 0; j < 8; ++j) {
-      bp[j] = s.b_prev[idx[j]];
-      bc[j] = s.b_cur[idx[j]];
-    }
-    const Mat3 M = frontend::eightPointMinimal(bp, bc).value_or(Mat3::Zero());
-    for (int j = 0; j < 9; ++j) E[9 * h + j] = static_cast<float>(M(j / 3, j % 3));
-  }
+  const SoAd soa = toSoAd(s);
+  gpu::generateHypothesesCpu(soa.view(), 42, 0, kHypotheses, E.data());
   return E;
+}
+
+void setAccuracyCounters(benchmark::State& state, const test::TwoViewScene& s, const Mat3& R,
+                         const Vec3& t) {
+  const Vec3 t_true = s.t_cur_prev.normalized();
+  state.counters["rot_err_deg"] = so3::angle(R.transpose() * s.R_cur_prev) * 180 / M_PI;
+  state.counters["tdir_err_deg"] = std::atan2(t.cross(t_true).norm(), t.dot(t_true)) * 180 / M_PI;
 }
 
 void BM_Ransac(benchmark::State& state, const std::string& backend, int n) {
@@ -83,10 +107,7 @@ void BM_Ransac(benchmark::State& state, const std::string& backend, int n) {
     r = estimator.estimate(s.b_prev, s.b_cur);
     benchmark::DoNotOptimize(r.num_inliers);
   }
-  const Vec3 t_true = s.t_cur_prev.normalized();
-  state.counters["rot_err_deg"] = so3::angle(r.R_cur_prev.transpose() * s.R_cur_prev) * 180 / M_PI;
-  state.counters["tdir_err_deg"] =
-      std::atan2(r.t_cur_prev.cross(t_true).norm(), r.t_cur_prev.dot(t_true)) * 180 / M_PI;
+  setAccuracyCounters(state, s, r.R_cur_prev, r.t_cur_prev);
   state.counters["inliers"] = r.num_inliers;
   state.counters["ok"] = r.status == frontend::RelativePoseResult::Status::kOk;
 }
@@ -142,27 +163,52 @@ void BM_RansacScoreEigenNaive(benchmark::State& state) {
       benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
 }
 
-// 2000 minimal 8-point solves (sampling, elimination, projection), on one or all threads.
+// 2000 minimal 8-point solves (sampling, batched Householder null vector, Jacobi projection), on
+// one thread or on the backend's threads.
 void BM_RansacHypotheses(benchmark::State& state, const std::string& backend) {
-  const auto& s = scene(1000);
+  const SoAd soa = toSoAd(scene(1000));
   auto scorer = gpu::makeScoringBackend(backend);
   std::vector<float> E(9 * kHypotheses);
   for (auto _ : state) {
     scorer->parallelFor(kHypotheses, [&](int b, int e) {
-      std::array<Vec3, 8> bp, bc;
-      for (int h = b; h < e; ++h) {
-        const auto idx = frontend::sampleIndices(42, h, 1000);
-        for (int j = 0; j < 8; ++j) {
-          bp[j] = s.b_prev[idx[j]];
-          bc[j] = s.b_cur[idx[j]];
-        }
-        const auto M = frontend::eightPointMinimal(bp, bc);
-        E[9 * h] = M ? static_cast<float>((*M)(0, 0)) : 0.0f;
-      }
+      gpu::generateHypothesesCpu(soa.view(), 42, b, e, E.data() + 9 * b);
     });
     benchmark::DoNotOptimize(E.data());
   }
 }
+
+#if OVO_HAVE_OPENGV
+// The peer: OpenGV's central relative-pose RANSAC with its 8-point solver (Kneip, Furgale,
+// "OpenGV", ICRA 2014), one thread, the same 2000 hypotheses (probability 1: no early stop), the
+// same angular threshold (OpenGV thresholds 1 - cos(angle) of reprojected bearings). OpenGV
+// returns the best sample's model without a refit; ours is refit and refined on the inliers.
+void BM_RansacOpenGv(benchmark::State& state, int n) {
+  namespace sac = opengv::sac;
+  using Problem = opengv::sac_problems::relative_pose::CentralRelativePoseSacProblem;
+  const auto& s = scene(n);
+  opengv::bearingVectors_t b1(s.b_prev.begin(), s.b_prev.end());
+  opengv::bearingVectors_t b2(s.b_cur.begin(), s.b_cur.end());
+  opengv::relative_pose::CentralRelativeAdapter adapter(b1, b2);
+  opengv::transformation_t T_prev_cur = opengv::transformation_t::Zero();
+  std::size_t inliers = 0;
+  for (auto _ : state) {
+    sac::Ransac<Problem> ransac;
+    ransac.sac_model_ = std::make_shared<Problem>(adapter, Problem::EIGHTPT);
+    ransac.threshold_ = 1.0 - std::cos(kThresholdRad);
+    ransac.max_iterations_ = kHypotheses - 1;  // OpenGV stops after iterations_ > max_iterations_
+    ransac.probability_ = 1.0;
+    ransac.computeModel();
+    T_prev_cur = ransac.model_coefficients_;
+    inliers = ransac.inliers_.size();
+    benchmark::DoNotOptimize(T_prev_cur.data());
+  }
+  // OpenGV's (R, t) maps points of the second (current) frame into the first (previous) one.
+  const Mat3 R_cur_prev = T_prev_cur.leftCols<3>().transpose();
+  const Vec3 t_cur_prev = -(R_cur_prev * T_prev_cur.col(3)).normalized();
+  setAccuracyCounters(state, s, R_cur_prev, t_cur_prev);
+  state.counters["inliers"] = static_cast<double>(inliers);
+}
+#endif
 
 const bool registered = [] {
   std::vector<std::string> backends = {"serial", "threads"};
@@ -184,6 +230,13 @@ const bool registered = [] {
         ->Unit(benchmark::kMillisecond)
         ->UseRealTime();
   }
+#if OVO_HAVE_OPENGV
+  for (int n : {250, 1000, 4000})
+    benchmark::RegisterBenchmark(("BM_Ransac/opengv8pt/" + std::to_string(n)).c_str(),
+                                 [n](benchmark::State& st) { BM_RansacOpenGv(st, n); })
+        ->Unit(benchmark::kMillisecond)
+        ->UseRealTime();
+#endif
   benchmark::RegisterBenchmark("BM_RansacScore/eigen_naive/1000", BM_RansacScoreEigenNaive)
       ->Unit(benchmark::kMillisecond)
       ->UseRealTime();

@@ -7,12 +7,17 @@
 
 #include <array>
 #include <cstdint>
+#include <functional>
 #include <optional>
 #include <vector>
 
 #include "common/types.hpp"
 
 namespace ovo::frontend {
+
+/// Runs fn(begin, end) over sub-ranges covering [0, n), possibly on several threads
+/// (gpu::ScoringBackend::parallelFor).
+using ParallelFor = std::function<void(int n, const std::function<void(int, int)>& fn)>;
 
 /// A relative motion between two camera frames; t has unit length (or is zero).
 struct RelativeMotion {
@@ -23,10 +28,10 @@ struct RelativeMotion {
 /// E = [t]x R.
 Mat3 essentialFromMotion(const Mat3& R_cur_prev, const Vec3& t_cur_prev);
 
-/// Minimal 8-point solve: the null vector of the 8x9 system A_i = kron(b_cur_i, b_prev_i)
-/// (Gaussian elimination with row pivoting, full pivoting on small pivots; a rank-deficient sample,
-/// e.g. pure rotation, still gives one null vector), projected to an essential matrix. nullopt for
-/// non-finite input or a sample of rank < 5. Fast (~0.5 us): used for RANSAC hypotheses.
+/// Minimal 8-point solve: the null vector of the 8x9 system A_i = kron(b_cur_i, b_prev_i) by
+/// Householder QR (a rank-deficient sample, e.g. pure rotation, still gives one null vector),
+/// projected to an essential matrix; exactly the RANSAC hypotheses' solver
+/// (gpu::eightPointLanes). nullopt for non-finite input or a result of rank < 2.
 std::optional<Mat3> eightPointMinimal(const std::array<Vec3, 8>& b_prev,
                                       const std::array<Vec3, 8>& b_cur);
 
@@ -68,9 +73,11 @@ std::optional<Mat3> rotationOnly(const std::vector<Vec3>& b_prev, const std::vec
 /// cauchy_scale_rad > 0 minimises sum c^2 log(1 + e_i / c^2) (c = cauchy_scale_rad) instead of
 /// sum e_i, so a wrong match just inside the inlier threshold cannot bend the model. Returns the
 /// refined motion (the input when no step lowers the cost).
+/// parallel_for (optional) spreads the per-match sums over threads; they are reduced in fixed
+/// chunks in a fixed order, so the result is the same bits with or without it.
 RelativeMotion refineOnSphere(const RelativeMotion& init, const std::vector<Vec3>& b_prev,
                               const std::vector<Vec3>& b_cur,
                               const std::vector<std::uint8_t>& flags, int max_iterations = 10,
-                              double cauchy_scale_rad = 0.0);
+                              double cauchy_scale_rad = 0.0, const ParallelFor& parallel_for = {});
 
 }  // namespace ovo::frontend

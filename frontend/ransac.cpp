@@ -5,36 +5,11 @@
 #include <limits>
 
 #include "frontend/essential.hpp"
+#include "gpu/hypotheses.hpp"
 
 namespace ovo::frontend {
-namespace {
-
-// splitmix64 (Steele, Lea, Flood, "Fast splittable pseudorandom number generators", 2014).
-inline std::uint64_t splitmix64(std::uint64_t& state) {
-  std::uint64_t z = (state += 0x9E3779B97F4A7C15ull);
-  z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
-  z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
-  return z ^ (z >> 31);
-}
-
-}  // namespace
-
 std::array<int, 8> sampleIndices(std::uint64_t seed, std::uint64_t k, int num_matches) {
-  std::uint64_t key = seed;
-  std::uint64_t state = splitmix64(key) ^ ((k + 1) * 0xD1B54A32D192ED03ull);
-  std::array<int, 8> idx{};
-  const auto n = static_cast<unsigned __int128>(num_matches);
-  for (int j = 0; j < 8; ++j) {
-    for (;;) {
-      // Lemire's multiply-shift maps 64 random bits to [0, n).
-      const int c = static_cast<int>((static_cast<unsigned __int128>(splitmix64(state)) * n) >> 64);
-      if (std::find(idx.begin(), idx.begin() + j, c) == idx.begin() + j) {
-        idx[j] = c;
-        break;
-      }
-    }
-  }
-  return idx;
+  return gpu::sampleIndices(seed, k, num_matches);
 }
 
 double requiredIterations(double inlier_ratio, double confidence) {
@@ -57,11 +32,17 @@ RansacResult Ransac::run(const std::vector<Vec3>& b_prev, const std::vector<Vec3
 
   prev_soa_.resize(3 * static_cast<std::size_t>(n));
   cur_soa_.resize(3 * static_cast<std::size_t>(n));
+  prev_soa_d_.resize(3 * static_cast<std::size_t>(n));
+  cur_soa_d_.resize(3 * static_cast<std::size_t>(n));
   for (int i = 0; i < n; ++i)
     for (int r = 0; r < 3; ++r) {
-      prev_soa_[static_cast<std::size_t>(r) * n + i] = static_cast<float>(b_prev[i](r));
-      cur_soa_[static_cast<std::size_t>(r) * n + i] = static_cast<float>(b_cur[i](r));
+      const std::size_t at = static_cast<std::size_t>(r) * n + i;
+      prev_soa_d_[at] = b_prev[i](r);
+      cur_soa_d_[at] = b_cur[i](r);
+      prev_soa_[at] = static_cast<float>(b_prev[i](r));
+      cur_soa_[at] = static_cast<float>(b_cur[i](r));
     }
+  const gpu::BearingsSoA bearings{prev_soa_d_.data(), cur_soa_d_.data(), n};
   const gpu::MatchesSoA matches{prev_soa_.data(), cur_soa_.data(), n};
   backend_->setMatches(matches);
   const float k = gpu::inlierConstant(options.inlier_threshold_rad);
@@ -74,20 +55,13 @@ RansacResult Ransac::run(const std::vector<Vec3>& b_prev, const std::vector<Vec3
   while (evaluated < total) {
     const int h0 = evaluated, h1 = std::min(total, evaluated + block);
     // Hypothesis h depends on (seed, h) only: generated on any thread, identical everywhere.
-    backend_->parallelFor(h1 - h0, [&](int b, int e) {
-      std::array<Vec3, 8> sp, sc;
-      for (int h = h0 + b; h < h0 + e; ++h) {
-        const auto idx = sampleIndices(options.seed, static_cast<std::uint64_t>(h), n);
-        for (int j = 0; j < 8; ++j) {
-          sp[j] = b_prev[idx[j]];
-          sc[j] = b_cur[idx[j]];
-        }
-        const auto E = eightPointMinimal(sp, sc);
-        float* out = &hypotheses_[9 * static_cast<std::size_t>(h)];
-        for (int j = 0; j < 9; ++j) out[j] = E ? static_cast<float>((*E)(j / 3, j % 3)) : 0.0f;
-      }
-    });
-    backend_->score(&hypotheses_[9 * static_cast<std::size_t>(h0)], h1 - h0, k, &counts_[h0]);
+    float* E_block = &hypotheses_[9 * static_cast<std::size_t>(h0)];
+    backend_->generateAndScore(
+        h1 - h0,
+        [&](int b, int e) {
+          gpu::generateHypothesesCpu(bearings, options.seed, h0 + b, h0 + e, E_block + 9 * b);
+        },
+        E_block, k, &counts_[h0]);
     for (int h = h0; h < h1; ++h)
       if (counts_[h] > best_count) {  // strict: ties keep the lowest index
         best_count = counts_[h];

@@ -1,11 +1,13 @@
 // Reproducible essential-matrix RANSAC on bearing matches (DESIGN sections 4, 5). Hypothesis k
-// draws its 8-sample from its own counter-based stream (seed, k), the 8-point solve runs on the
-// CPU (deterministic whatever thread runs it), and only the scoring runs on the backend, so every
-// backend evaluates the same hypotheses and returns the same winner and inlier set.
+// draws its 8-sample from its own counter-based stream (seed, k), the batched 8-point solve
+// (gpu/hypotheses.hpp) runs on CPU threads (deterministic whatever thread runs it), the scoring
+// on the backend, so every backend evaluates the same hypotheses and returns the same winner and
+// inlier set.
 #pragma once
 
 #include <array>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <string_view>
 #include <vector>
@@ -33,7 +35,8 @@ struct RansacResult {
   std::vector<std::uint8_t> inliers;  // of the winning hypothesis, float test of gpu/scoring.hpp
 };
 
-/// The 8 distinct match indices of hypothesis k (splitmix64 stream keyed by (seed, k)).
+/// The 8 distinct match indices of hypothesis k (gpu::sampleIndices: splitmix64 keyed by (seed,
+/// k)).
 std::array<int, 8> sampleIndices(std::uint64_t seed, std::uint64_t k, int num_matches);
 
 /// Number of hypotheses needed for `confidence` with inlier ratio w and 8-point samples.
@@ -51,12 +54,15 @@ class Ransac {
                    const RansacOptions& options);
 
   std::string_view backendName() const { return backend_->name(); }
+  /// The backend's parallelFor (thread pool for threads and opencl, inline for serial).
+  void parallelFor(int n, const std::function<void(int, int)>& fn) { backend_->parallelFor(n, fn); }
   /// Inlier counts of every hypothesis evaluated by the last run (index = hypothesis).
   const std::vector<int>& lastCounts() const { return counts_; }
 
  private:
   std::unique_ptr<gpu::ScoringBackend> backend_;
   std::vector<float> prev_soa_, cur_soa_, hypotheses_;
+  std::vector<double> prev_soa_d_, cur_soa_d_;
   std::vector<int> counts_;
 };
 

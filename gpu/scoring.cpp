@@ -1,15 +1,13 @@
 #include "gpu/scoring.hpp"
 
 #include <spdlog/spdlog.h>
-#include <tbb/blocked_range.h>
-#include <tbb/info.h>
-#include <tbb/parallel_for.h>
 
 #include <algorithm>
 #include <mutex>
 
 #include "common/error.hpp"
 #include "gpu/opencl_context.hpp"
+#include "gpu/thread_pool.hpp"
 
 namespace ovo::gpu {
 
@@ -22,17 +20,27 @@ void ScoringBackend::parallelFor(int n, const std::function<void(int, int)>& fn)
   if (n > 0) fn(0, n);
 }
 
+void ScoringBackend::generateAndScore(int num_hypotheses, const Generator& generate,
+                                      float* E_rowmajor, float k, int* inlier_counts) {
+  if (num_hypotheses <= 0) return;
+  generate(0, num_hypotheses);
+  score(E_rowmajor, num_hypotheses, k, inlier_counts);
+}
+
+void hostParallelFor(int n, const std::function<void(int, int)>& fn) {
+  if (n <= 0) return;
+  ThreadPool& pool = ThreadPool::shared();
+  const int tasks = std::min(n, 4 * pool.concurrency());
+  pool.run(tasks, [&](int t) {
+    fn(static_cast<int>(static_cast<long>(n) * t / tasks),
+       static_cast<int>(static_cast<long>(n) * (t + 1) / tasks));
+  });
+}
+
 namespace {
 
-// Splits [0, n) over TBB's worker threads in chunks of about n / (4 threads).
-void tbbFor(int n, const std::function<void(int, int)>& fn) {
-  if (n <= 0) return;
-  const int threads = std::max(1, tbb::info::default_concurrency());
-  const int grain = std::max(1, n / (4 * threads));
-  tbb::parallel_for(
-      tbb::blocked_range<int>(0, n, grain),
-      [&](const tbb::blocked_range<int>& r) { fn(r.begin(), r.end()); }, tbb::simple_partitioner());
-}
+// Hypotheses per pool task of the threads backend: generated and scored while in L1.
+constexpr int kThreadsChunk = 64;
 
 /// One thread: the CPU kernel over all hypotheses.
 class SerialBackend final : public ScoringBackend {
@@ -47,17 +55,31 @@ class SerialBackend final : public ScoringBackend {
   MatchesSoA matches_;
 };
 
-/// The CPU kernel over blocks of hypotheses on TBB's threads (each count is computed by one
+/// The CPU kernel over chunks of hypotheses on the thread pool (each count is computed by one
 /// thread with the serial arithmetic, so the counts equal the serial ones).
 class ThreadsBackend final : public ScoringBackend {
  public:
   std::string_view name() const override { return "threads"; }
   void setMatches(const MatchesSoA& matches) override { matches_ = matches; }
   void score(const float* E, int num_hypotheses, float k, int* counts) override {
-    tbbFor(num_hypotheses,
-           [&](int b, int e) { scoreHypothesesCpu(E, b, e, matches_, k, counts + b); });
+    const int tasks = (num_hypotheses + kThreadsChunk - 1) / kThreadsChunk;
+    ThreadPool::shared().run(tasks, [&](int t) {
+      const int b = t * kThreadsChunk, e = std::min(num_hypotheses, b + kThreadsChunk);
+      scoreHypothesesCpu(E, b, e, matches_, k, counts + b);
+    });
   }
-  void parallelFor(int n, const std::function<void(int, int)>& fn) override { tbbFor(n, fn); }
+  void generateAndScore(int num_hypotheses, const Generator& generate, float* E, float k,
+                        int* counts) override {
+    const int tasks = (num_hypotheses + kThreadsChunk - 1) / kThreadsChunk;
+    ThreadPool::shared().run(tasks, [&](int t) {
+      const int b = t * kThreadsChunk, e = std::min(num_hypotheses, b + kThreadsChunk);
+      generate(b, e);
+      scoreHypothesesCpu(E, b, e, matches_, k, counts + b);
+    });
+  }
+  void parallelFor(int n, const std::function<void(int, int)>& fn) override {
+    hostParallelFor(n, fn);
+  }
 
  private:
   MatchesSoA matches_;
@@ -67,9 +89,6 @@ class ThreadsBackend final : public ScoringBackend {
 
 std::unique_ptr<ScoringBackend> makeSerialBackend() { return std::make_unique<SerialBackend>(); }
 std::unique_ptr<ScoringBackend> makeThreadsBackend() { return std::make_unique<ThreadsBackend>(); }
-
-// Host-side threads for the OpenCL backend's parallelFor (defined here to keep TBB in one file).
-void hostParallelFor(int n, const std::function<void(int, int)>& fn) { tbbFor(n, fn); }
 
 std::unique_ptr<ScoringBackend> makeScoringBackend(std::string_view name) {
   if (name == "serial") return makeSerialBackend();

@@ -47,8 +47,17 @@ class ScoringBackend {
   virtual void setMatches(const MatchesSoA& matches) = 0;
   /// inlier_counts[h] for the num_hypotheses hypotheses in E_rowmajor (9 floats each).
   virtual void score(const float* E_rowmajor, int num_hypotheses, float k, int* inlier_counts) = 0;
-  /// Runs fn(begin, end) over sub-ranges covering [0, n): on CPU threads when the backend may
-  /// use them (threads, opencl: host-side work such as hypothesis generation), else inline.
+  /// Fills hypotheses [begin, end) of the current block: 9 row-major floats each, at E + 9 begin.
+  using Generator = std::function<void(int begin, int end)>;
+  /// Generates and scores num_hypotheses hypotheses: generate() fills E_rowmajor, then
+  /// inlier_counts[h] is hypothesis h's count. The default generates everything and calls score();
+  /// threads runs generation and scoring of each chunk on one pool thread (the chunk stays in
+  /// cache), opencl scores chunk c on the device while the host generates chunk c + 1.
+  /// generate() must give the same floats whatever thread runs it.
+  virtual void generateAndScore(int num_hypotheses, const Generator& generate, float* E_rowmajor,
+                                float k, int* inlier_counts);
+  /// Runs fn(begin, end) over sub-ranges covering [0, n): on the thread pool when the backend may
+  /// use it (threads, opencl), else inline.
   virtual void parallelFor(int n, const std::function<void(int, int)>& fn);
 };
 

@@ -6,6 +6,7 @@
 #include <Eigen/SVD>
 
 #include "common/so3.hpp"
+#include "gpu/thread_pool.hpp"
 #include "tests/gpu/two_view_scene.hpp"
 
 namespace ovo::frontend {
@@ -186,6 +187,28 @@ TEST(Essential, RefinementLowersTheSphereCostOnNoisyMatches) {
   EXPECT_LT(rotationErrorRad(m1.R_cur_prev, s.R_cur_prev), 0.15 * M_PI / 180.0);
   EXPECT_LT(std::acos(std::min(1.0, m1.t_cur_prev.dot(s.t_cur_prev.normalized()))),
             2.0 * M_PI / 180.0);
+}
+
+TEST(Essential, RefinementOnThreadsGivesTheSameBitsAsOnOneThread) {
+  test::TwoViewSceneOptions o;
+  o.num_matches = 700;  // several reduction chunks, the last one partial
+  o.outlier_ratio = 0.0;
+  o.noise_px = 1.0;
+  o.seed = 17;
+  const auto s = test::makeTwoViewScene(o);
+  RelativeMotion init{so3::exp(Vec3(0.003, -0.002, 0.001)) * s.R_cur_prev,
+                      (s.t_cur_prev.normalized() + Vec3(0.02, -0.01, 0.0)).normalized()};
+  std::vector<std::uint8_t> flags(s.b_prev.size(), 1);
+  flags[5] = flags[300] = 0;
+  const auto one = refineOnSphere(init, s.b_prev, s.b_cur, flags, 6, 1e-3);
+  auto pool_for = [](int n, const std::function<void(int, int)>& fn) {
+    gpu::ThreadPool::shared().run(n, [&](int t) { fn(t, t + 1); });
+  };
+  const auto many = refineOnSphere(init, s.b_prev, s.b_cur, flags, 6, 1e-3, pool_for);
+  EXPECT_TRUE((one.R_cur_prev.array() == many.R_cur_prev.array()).all());
+  EXPECT_TRUE((one.t_cur_prev.array() == many.t_cur_prev.array()).all());
+  EXPECT_LT(rotationErrorRad(one.R_cur_prev, s.R_cur_prev),
+            rotationErrorRad(init.R_cur_prev, s.R_cur_prev));
 }
 
 }  // namespace
