@@ -33,6 +33,13 @@ struct KfEstimatorOptions {
   double scale_deadband = 0.02;         // c is applied once |log c| exceeds this and 3 sigma, 1
   bool refit_translation = false;       // true: translation direction re-fit to the fused rotation
                                    // (measured worse than the RANSAC direction on the simulator)
+  bool zero_rate_update = true;  // standstill: the mean gyro rate measures the bias (ZARU)
+  double still_flow_deg = 0.15;  // standstill: median angle between the bearings of the reference
+                                 // and the current image below this, deg (tracked positions wander
+                                 // ~0.01 deg per frame with exposure changes even when still)
+  double still_gyro_std_radps = 0.005;  // ... and the frame's gyro samples this quiet, rad/s
+                                        // (2x the sample noise of a MEMS gyro at 200 Hz; ride
+                                        // vibration at cruise speed gives 0.004-0.01)
   bool use_gyro = true;
   bool use_lidar = true;
   GroundPlaneOptions ground;
@@ -56,6 +63,10 @@ KfEstimatorOptions readKfEstimatorOptions(const Config& cfg, const SensorSetup& 
   o.scale_gate_chi2 = cfg.getInRange("kf.scale_gate_chi2", o.scale_gate_chi2, 0.0, 1e9);
   o.scale_deadband = cfg.getInRange("kf.scale_deadband", o.scale_deadband, 0.0, 1.0);
   o.refit_translation = cfg.get<bool>("kf.refit_translation", o.refit_translation);
+  o.zero_rate_update = cfg.get<bool>("kf.zero_rate_update", o.zero_rate_update);
+  o.still_flow_deg = cfg.getInRange("kf.still_flow_deg", o.still_flow_deg, 0.0, 10.0);
+  o.still_gyro_std_radps =
+      cfg.getInRange("kf.still_gyro_std_radps", o.still_gyro_std_radps, 0.0, 10.0);
   o.use_gyro = cfg.get<bool>("kf.use_gyro", o.use_gyro);
   o.use_lidar = cfg.get<bool>("kf.use_lidar", o.use_lidar);
   o.ground = readGroundPlaneOptions(cfg);
@@ -222,6 +233,11 @@ class KfEstimator final : public Estimator {
       } else {
         filter_.propagateTo(t_ns);
       }
+      if (vo_ok && use_gyro_ && options_.zero_rate_update && standingStill(s)) {
+        filter_.zeroRateUpdate(frame_gyro_sum_ / frame_gyro_count_,
+                               toSeconds(t_ns - trajectory_.back().t_ns));
+        ++still_frames_;
+      }
       // The fused rotation; without a gyro the filter cannot follow between VO updates, so the
       // VO rotation from the reference stands in for it there.
       Mat3 R_W_Bcur = filter_.R_W_B();
@@ -277,6 +293,10 @@ class KfEstimator final : public Estimator {
   }
 
   void finish() override {
+    if (still_frames_ > 0)
+      stats_.notes.push_back(
+          fmt::format("kf: standing still in {} frames: gyro bias from zero-rate updates there",
+                      still_frames_));
     if (use_lidar_ && stats_.lidar_scale_frames == 0)
       stats_.notes.push_back(
           "kf: the LiDAR never associated with tracked features: ground-plane scale only");
@@ -294,10 +314,36 @@ class KfEstimator final : public Estimator {
     return it->T_W_B;
   }
 
-  // Propagates the filter with every gyro sample up to t (the rest wait for later frames).
+  // Standstill: the image does not move (median angle between the reference's and the current
+  // bearings of the tracked pairs, no rotation compensation: a still camera sees the same rays)
+  // and the gyro samples of the frame are quiet (only sensor noise; vibration or turning is not).
+  bool standingStill(const ChainStep& s) const {
+    if (frame_gyro_count_ < 3 || s.bearings_prev.size() < 8) return false;
+    const Vec3 mean = frame_gyro_sum_ / frame_gyro_count_;
+    const double var =
+        std::max(0.0, frame_gyro_sq_sum_ / frame_gyro_count_ - mean.squaredNorm()) / 3.0;
+    if (std::sqrt(var) > options_.still_gyro_std_radps) return false;
+    std::vector<double> angles;
+    angles.reserve(s.bearings_prev.size());
+    for (std::size_t i = 0; i < s.bearings_prev.size() && i < s.bearings_cur.size(); ++i)
+      angles.push_back(std::atan2(s.bearings_prev[i].cross(s.bearings_cur[i]).norm(),
+                                  s.bearings_prev[i].dot(s.bearings_cur[i])));
+    auto mid = angles.begin() + static_cast<std::ptrdiff_t>(angles.size() / 2);
+    std::nth_element(angles.begin(), mid, angles.end());
+    return *mid < options_.still_flow_deg * M_PI / 180.0;
+  }
+
+  // Propagates the filter with every gyro sample up to t (the rest wait for later frames), and
+  // keeps the mean and spread of this frame's samples for the standstill test.
   void feedGyroUntil(Timestamp t_ns) {
+    frame_gyro_sum_.setZero();
+    frame_gyro_sq_sum_ = 0.0;
+    frame_gyro_count_ = 0;
     while (!pending_gyro_.empty() && pending_gyro_.front().t_ns <= t_ns) {
       const ImuSample& g = pending_gyro_.front();
+      frame_gyro_sum_ += g.gyro_radps;
+      frame_gyro_sq_sum_ += g.gyro_radps.squaredNorm();
+      ++frame_gyro_count_;
       if (last_gyro_t_ && toSeconds(g.t_ns - *last_gyro_t_) > options_.filter.max_gyro_gap_s)
         ++stats_.gyro_gaps;
       last_gyro_t_ = g.t_ns;
@@ -440,6 +486,10 @@ class KfEstimator final : public Estimator {
   bool use_gyro_ = false, use_lidar_ = false;
   std::deque<ImuSample> pending_gyro_;
   std::optional<Timestamp> last_gyro_t_;
+  Vec3 frame_gyro_sum_ = Vec3::Zero();  // gyro samples fed for the current frame: sum,
+  double frame_gyro_sq_sum_ = 0.0;      // sum of squared norms
+  int frame_gyro_count_ = 0;            // and count
+  int still_frames_ = 0;                // frames with a zero-rate update
   std::deque<LidarScan> scans_;
   double ground_speed_mps_ = 0.0;  // last ground-plane speed (uncorrected)
   double lidar_speed_mps_ = 0.0;   // last direct LiDAR speed (no camera height)

@@ -136,6 +136,33 @@ void KfFilter::cloneCurrent(Timestamp t_ns) {
   max_rate_since_clone_radps_ = 0.0;
 }
 
+KfUpdateResult KfFilter::zeroRateUpdate(const Vec3& mean_rate_radps, double window_s) {
+  KfUpdateResult result;
+  if (!t_ns_ || !mean_rate_radps.allFinite() || !(window_s > 0.0)) return result;
+  // z = b_g + n, n ~ N(0, sigma_g^2 / T); H = [0, I, 0].
+  const Vec3 r = mean_rate_radps - b_g_;
+  const double sigma = options_.gyro_noise_density / std::sqrt(window_s);
+  result.sigma_vo_rad = sigma;
+  Eigen::Matrix<double, 3, kErrorDim> H = Eigen::Matrix<double, 3, kErrorDim>::Zero();
+  H.block<3, 3>(0, 3).setIdentity();
+  const Mat3 R_noise = Mat3::Identity() * (sigma * sigma);
+  const Mat3 S = P_.block<3, 3>(3, 3) + R_noise;
+  const Eigen::LDLT<Mat3> S_ldlt(S);
+  if (S_ldlt.info() != Eigen::Success || !S_ldlt.isPositive()) return result;
+  result.chi2 = r.dot(S_ldlt.solve(r));
+  const Eigen::Matrix<double, kErrorDim, 3> K = S_ldlt.solve(H * P_).transpose();  // P H^T S^-1
+  const Eigen::Matrix<double, kErrorDim, 1> dx = K * r;
+  if (!dx.allFinite()) return result;
+  R_W_B_ = R_W_B_ * so3::exp(dx.segment<3>(0));
+  b_g_ += dx.segment<3>(3);
+  R_W_Bk_ = R_W_Bk_ * so3::exp(dx.segment<3>(6));
+  const Mat9 IKH = Mat9::Identity() - K * H;
+  P_ = IKH * P_ * IKH.transpose() + K * R_noise * K.transpose();
+  P_ = 0.5 * (P_ + P_.transpose()).eval();
+  result.applied = true;
+  return result;
+}
+
 void KfFilter::markFrame(Timestamp t_ns) {
   propagateTo(t_ns);
   cloneCurrent(time());

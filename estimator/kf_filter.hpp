@@ -22,6 +22,11 @@
 //                   more the gyro is trusted), and while |w| > w_freeze over the frame interval the
 //                   bias rows of the gain are zeroed (bias frozen: a fast turn says more about VO
 //                   failure than about the bias). Joseph form keeps P consistent for that gain.
+//   standstill      zero-rate update (ZARU): while the robot stands still, the mean gyro rate over
+//                   the frame interval T measures the bias directly:
+//                   z = mean(w_m) = b_g + n,  n ~ N(0, sigma_g^2 / T I),  H = [0, I, 0]
+//                   (the usual VIO practice; without it a standstill says nothing about the bias,
+//                   because the VO keeps its reference frame and gives no rotation update).
 //   gyro gaps       without a gyro sample for longer than max_gyro_gap_s the prediction holds the
 //                   rotation and adds a rotation random walk sigma_gap^2 dt, so VO takes over.
 #pragma once
@@ -94,6 +99,9 @@ class KfFilter {
   /// inlier count). The first frame only sets the clone; afterwards the clone moves to t_ns.
   KfUpdateResult update(Timestamp t_ns, const Mat3& R_Bprev_Bcur,
                         std::optional<double> sigma0_rad = std::nullopt);
+  /// Zero-rate update while standing still (see the model above): mean_rate_radps is the mean of
+  /// the gyro samples over the last window_s seconds. Does not move the clone.
+  KfUpdateResult zeroRateUpdate(const Vec3& mean_rate_radps, double window_s);
   /// A camera frame at t_ns without a VO rotation (tracking lost): only moves the clone.
   void markFrame(Timestamp t_ns);
 
