@@ -90,6 +90,7 @@ WindowCore::WindowCore(const SensorSetup& setup, const WindowOptions& options,
   model_.lidar_sigma_m =
       options.lidar_range_sigma_m > 0.0 ? options.lidar_range_sigma_m : setup.lidar_range_sigma_m;
   model_.lidar_huber = options.lidar_huber_sigmas;
+  model_.lidar_cauchy = options.lidar_loss == "cauchy";
   model_.bias_random_walk = options.gyro_bias_random_walk > 0.0 ? options.gyro_bias_random_walk
                                                                 : setup.gyro_bias_random_walk;
   model_.bias_prior_sigma_radps = options.gyro_bias_prior_sigma_radps;
@@ -100,6 +101,10 @@ WindowCore::WindowCore(const SensorSetup& setup, const WindowOptions& options,
   use_gyro_ = options.use_gyro && setup.has_gyro;
   use_lidar_ = options.use_lidar && setup.has_lidar;
   model_.use_gyro = use_gyro_;
+  if (options.use_ground_height && setup.camera_height_m && *setup.camera_height_m > 0.0) {
+    model_.camera_height_m = *setup.camera_height_m;
+    model_.ground_sigma_m = options.ground_height_sigma_m;
+  }
   if (!use_gyro_) note("no gyro: vision-only rotation (8-point initialisation, no gyro factors)");
   if (!use_lidar_) {
     note(setup.camera_height_m ? "no LiDAR: ground-plane scale at initialisation (camera_height_m)"
@@ -412,7 +417,8 @@ std::vector<LidarAssociation> WindowCore::lidarCandidates(const VisualFrame& fra
   const LidarScan* scan = scanAt(frame.t_ns);
   if (scan == nullptr) return out;
   const SE3 T_C_L = setup_.T_B_C.inverse() * setup_.T_B_L;
-  const auto beams = projectScan(*scan, setup_.camera, T_C_L);
+  const auto beams = projectScan(*scan, setup_.camera, T_C_L, options_.lidar_edge_step,
+                                 options_.lidar_edge_neighbours);
   for (const BeamMatch& m : associateBeams(beams, frame.observations, options_.lidar_radius_px))
     out.push_back({m.track_id, m.range_m});
   return out;
@@ -487,12 +493,34 @@ void WindowCore::triangulateNewLandmarks(Keyframe& kf) {
 }
 
 void WindowCore::associateLidar(Keyframe& kf, bool gate_depth) {
-  if (!use_lidar_ || kf.lidar_candidates.empty()) return;
+  if (!use_lidar_) return;
   const SE3 T_L_W = (kf.pose() * setup_.T_B_L).inverse();
   std::unordered_set<TrackId> have;
   for (const auto& a : kf.lidar) have.insert(a.track_id);
+  if (options_.lidar_interpolate) {
+    // Every landmark the keyframe sees whose point lies within a small elevation of the scan
+    // plane: the scan's range interpolated at its azimuth (no pixel-radius offset along the scan).
+    if (!kf.scan) return;
+    const double max_tan_elevation = std::tan(options_.lidar_max_elevation_deg * kDegToRad);
+    for (const auto& [id, o] : kf.observations) {
+      if (have.count(id) || kf.lidar_rejected.count(id)) continue;
+      auto lm = map_.landmarks.find(id);
+      if (lm == map_.landmarks.end()) continue;
+      const auto p_W = map_.pointW(lm->second, setup_.T_B_C);
+      if (!p_W) continue;
+      const Vec3 p_L = T_L_W * *p_W;
+      const double d_xy = p_L.head<2>().norm();
+      if (!(d_xy > 1e-3) || std::abs(p_L.z()) > max_tan_elevation * d_xy) continue;
+      const auto r = interpolateRange(*kf.scan, std::atan2(p_L.y(), p_L.x()),
+                                      options_.lidar_edge_step, options_.lidar_edge_neighbours);
+      if (!r || (gate_depth && std::abs(d_xy - *r) > options_.lidar_depth_gate * *r)) continue;
+      kf.lidar.push_back({id, *r, true});
+    }
+    return;
+  }
+  if (kf.lidar_candidates.empty()) return;
   for (const LidarAssociation& c : kf.lidar_candidates) {
-    if (have.count(c.track_id)) continue;
+    if (have.count(c.track_id) || kf.lidar_rejected.count(c.track_id)) continue;
     auto lm = map_.landmarks.find(c.track_id);
     if (lm == map_.landmarks.end()) continue;
     const auto p_W = map_.pointW(lm->second, setup_.T_B_C);
@@ -522,6 +550,7 @@ void WindowCore::solveWindow() {
   last_solve_.residual_blocks = s.residual_blocks;
   last_solve_.iterations = s.iterations;
   removeOutliers();
+  labelGround();
   // Gyro preintegrations whose bias linearisation is now far from the estimate.
   for (std::size_t k = 1; k < kfs.size(); ++k) {
     auto& pi = kfs[k]->preint_from_prev;
@@ -553,9 +582,50 @@ void WindowCore::removeOutliers() {
       auto lm = map_.landmarks.find(a.track_id);
       if (lm == map_.landmarks.end()) return true;
       const auto p_W = map_.pointW(lm->second, setup_.T_B_C);
-      return !p_W || std::abs((T_L_W * *p_W).norm() - a.range_m) >
-                         std::max(0.1, options_.lidar_depth_gate * a.range_m);
+      Vec3 p_L = p_W ? Vec3(T_L_W * *p_W) : Vec3::Zero();
+      if (a.planar) p_L.z() = 0.0;
+      const bool outlier =
+          !p_W || std::abs(p_L.norm() - a.range_m) >
+                      std::max(options_.lidar_outlier_sigmas * model_.lidar_sigma_m,
+                               options_.lidar_outlier_fraction * a.range_m);
+      if (outlier) kf->lidar_rejected.insert(a.track_id);
+      return outlier;
     });
+  }
+}
+
+void WindowCore::labelGround() {
+  if (!(model_.camera_height_m > 0.0)) return;
+  const double h = model_.camera_height_m;
+  const Vec3 up_prior_C = setup_.T_B_C.linear().transpose() * Vec3::UnitZ();
+  const double min_down = std::sin(options_.ground_min_depression_deg * kDegToRad);
+  std::unordered_map<int, std::vector<Landmark*>> by_anchor;
+  for (auto& [id, lm] : map_.landmarks)
+    if (lm.rho[0] > 0.0) by_anchor[lm.anchor_kf].push_back(&lm);
+  for (auto& [kf_id, lms] : by_anchor) {
+    std::vector<Vec3> points_C;
+    for (const Landmark* lm : lms) points_C.push_back(lm->bearing_anchor_C / lm->rho[0]);
+    const auto plane = fitGroundPlane(points_C, up_prior_C, ground_options_);
+    const bool plane_ok = plane && std::abs(plane->height - h) <= options_.ground_scale_gate * h;
+    for (std::size_t k = 0; k < lms.size(); ++k) {
+      Landmark& lm = *lms[k];
+      const Vec3& p_C = points_C[k];
+      if (lm.on_ground) {  // keeps its factor while it stays near the plane it was given
+        const double depth_below = -lm.ground_up_C.dot(p_C);
+        if (std::abs(depth_below - h) > 2.0 * options_.ground_inlier_fraction * h)
+          lm.on_ground = false;
+        continue;
+      }
+      if (!plane_ok) continue;
+      const double down = -plane->up_C.dot(lm.bearing_anchor_C);
+      const double depth_below = -plane->up_C.dot(p_C);
+      const double dist = (p_C + depth_below * plane->up_C).norm();  // along the ground
+      if (down < min_down || dist > options_.ground_max_distance_m ||
+          std::abs(depth_below - plane->height) > options_.ground_inlier_fraction * h)
+        continue;
+      lm.on_ground = true;
+      lm.ground_up_C = plane->up_C;
+    }
   }
 }
 
@@ -575,7 +645,7 @@ void WindowCore::marginalize() {
       }
     }
     // Landmarks that end here, strongest first (LiDAR-linked, then most observed), up to the
-    // bound: the prior's Schur step is dense in the dropped states.
+    // optional bound (each costs O(k^2) in the prior's Schur step, k = the states it touches).
     std::vector<std::pair<int, TrackId>> ending;
     std::unordered_set<TrackId> lidar_tracks;
     for (const auto& kf : map_.keyframes)
@@ -585,9 +655,13 @@ void WindowCore::marginalize() {
         ending.emplace_back(-(map_.observationCount(id) + (lidar_tracks.count(id) ? 100 : 0)), id);
     std::sort(ending.begin(), ending.end());
     std::unordered_set<TrackId> marginalized;
-    for (std::size_t k = 0;
-         k < ending.size() && static_cast<int>(k) < options_.marginalize_max_landmarks; ++k)
+    const std::size_t max_marginalized =
+        options_.marginalize_max_landmarks > 0
+            ? static_cast<std::size_t>(options_.marginalize_max_landmarks)
+            : ending.size();
+    for (std::size_t k = 0; k < ending.size() && k < max_marginalized; ++k)
       if (ending[k].first <= -2) marginalized.insert(ending[k].second);
+    if (options_.marginalize_reanchored) marginalized.insert(reanchor.begin(), reanchor.end());
     auto info = marginalizeOldest(map_, model_, gauge_, marginalized);
     map_.rememberPoints(setup_.T_B_C);
     kf_poses_[oldest->id] = oldest->pose();
@@ -612,6 +686,7 @@ void WindowCore::marginalize() {
             lm.anchor_kf = kf->id;
             lm.bearing_anchor_C = o->second.bearing_C;
             lm.rho[0] = 1.0 / depth;
+            lm.on_ground = false;  // labelled again against the new anchor's plane
             keep = true;
           }
           break;
@@ -701,7 +776,8 @@ bool WindowCore::tryInitialize(const VisualFrame& frame, const SE3& T_W_B_pred,
     for (int view = 0; view < 2; ++view) {
       const LidarScan* scan = scanAt(view == 0 ? ref.t_ns : frame.t_ns);
       if (!scan) continue;
-      const auto beams = projectScan(*scan, setup_.camera, T_C_L);
+      const auto beams = projectScan(*scan, setup_.camera, T_C_L, options_.lidar_edge_step,
+                                     options_.lidar_edge_neighbours);
       const auto& observations = view == 0 ? toVector(ref.obs) : frame.observations;
       for (const BeamMatch& m : associateBeams(beams, observations, options_.lidar_radius_px)) {
         auto it = point_of.find(m.track_id);

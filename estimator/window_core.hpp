@@ -46,6 +46,8 @@ class WindowCore {
   /// Gyro-predicted rotation of the camera from the last processed frame to t (bias-corrected),
   /// R_Ccur_Cprev, for the frontend's matching prior; nullopt without gyro or before any frame.
   std::optional<Mat3> predictRotationCurPrev(Timestamp t_ns) const;
+  /// The gyro bias predictRotationCurPrev() uses (rad/s), for a frontend on another thread.
+  const Vec3& gyroBias() const { return bias_; }
 
   /// End of the sequence: final poses, optional full refinement.
   void finish();
@@ -87,6 +89,9 @@ class WindowCore {
   void associateLidar(Keyframe& kf, bool gate_depth);
   void solveWindow();
   void removeOutliers();
+  /// Camera-height factors: per keyframe, the plane fitted to the landmarks it anchors; its
+  /// inliers near the camera get (or keep) the factor when the plane agrees with the camera height.
+  void labelGround();
   void marginalize();
   void resetWindow();
   bool isKeyframe(const VisualFrame& frame, const SE3& T_W_B, bool has_scan) const;

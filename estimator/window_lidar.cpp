@@ -6,11 +6,29 @@
 
 namespace ovo::estimator {
 
+namespace {
+
+bool smoothAround(const LidarScan& scan, std::size_t i, double max_step_fraction, int neighbours) {
+  const auto n = static_cast<long>(scan.ranges_m.size());
+  const long c = static_cast<long>(i);
+  if (c - neighbours < 0 || c + neighbours >= n) return false;
+  const double max_step = max_step_fraction * scan.ranges_m[i];
+  for (long k = c - neighbours; k < c + neighbours; ++k) {
+    if (!scan.valid(static_cast<std::size_t>(k)) || !scan.valid(static_cast<std::size_t>(k + 1)))
+      return false;
+    if (std::abs(scan.ranges_m[k + 1] - scan.ranges_m[k]) > max_step) return false;
+  }
+  return true;
+}
+
+}  // namespace
+
 std::vector<BeamInImage> projectScan(const LidarScan& scan, const camera::Camera& camera,
-                                     const SE3& T_C_L) {
+                                     const SE3& T_C_L, double max_step_fraction, int neighbours) {
   std::vector<BeamInImage> out;
   for (std::size_t i = 0; i < scan.ranges_m.size(); ++i) {
     if (!scan.valid(i)) continue;
+    if (max_step_fraction > 0.0 && !smoothAround(scan, i, max_step_fraction, neighbours)) continue;
     const Vec3 p_C = T_C_L * scan.point_L(i);
     if (!p_C.allFinite() || p_C.norm() < 1e-3) continue;
     const auto px = camera::project(camera, p_C);
@@ -18,6 +36,20 @@ std::vector<BeamInImage> projectScan(const LidarScan& scan, const camera::Camera
     out.push_back({scan.ranges_m[i], p_C, *px});
   }
   return out;
+}
+
+std::optional<double> interpolateRange(const LidarScan& scan, double phi_rad,
+                                       double max_step_fraction, int neighbours) {
+  if (!(scan.angle_increment_rad > 0.0) || scan.ranges_m.size() < 2) return std::nullopt;
+  const double f = (phi_rad - scan.angle_min_rad) / scan.angle_increment_rad;
+  if (!(f >= 0.0) || f >= static_cast<double>(scan.ranges_m.size() - 1)) return std::nullopt;
+  const auto i0 = static_cast<std::size_t>(f);
+  for (const std::size_t i : {i0, i0 + 1})
+    if (!scan.valid(i) ||
+        (max_step_fraction > 0.0 && !smoothAround(scan, i, max_step_fraction, neighbours)))
+      return std::nullopt;
+  const double a = f - static_cast<double>(i0);
+  return (1.0 - a) * scan.ranges_m[i0] + a * scan.ranges_m[i0 + 1];
 }
 
 std::vector<BeamMatch> associateBeams(const std::vector<BeamInImage>& beams,

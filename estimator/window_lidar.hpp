@@ -3,6 +3,7 @@
 // tracked observation within a pixel radius.
 #pragma once
 
+#include <optional>
 #include <vector>
 
 #include "camera/camera.hpp"
@@ -17,9 +18,20 @@ struct BeamInImage {
   Vec2 px = Vec2::Zero();   // its pixel
 };
 
-/// Valid beams of `scan` whose end points project inside the valid image.
+/// Valid beams of `scan` whose end points project inside the valid image. With
+/// max_step_fraction > 0 only beams on a locally smooth surface: the `neighbours` beams on each
+/// side are valid and each step between adjacent ranges stays below max_step_fraction * range
+/// (a beam at a depth edge, e.g. through a canopy gap, lands next to features on the other side
+/// of the edge and would bias the scale).
 std::vector<BeamInImage> projectScan(const LidarScan& scan, const camera::Camera& camera,
-                                     const SE3& T_C_L);
+                                     const SE3& T_C_L, double max_step_fraction = 0.0,
+                                     int neighbours = 2);
+
+/// The scan's range at azimuth phi_rad in the L x-y plane, interpolated between the two beams
+/// around it, when both and `neighbours` more on each side are valid and adjacent ranges differ by
+/// less than max_step_fraction of the range (a smooth surface); nullopt otherwise.
+std::optional<double> interpolateRange(const LidarScan& scan, double phi_rad,
+                                       double max_step_fraction, int neighbours);
 
 /// A beam paired with an observation (nearest within radius_px; each track used once, by its
 /// nearest beam).

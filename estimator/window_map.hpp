@@ -9,6 +9,7 @@
 #include <memory>
 #include <optional>
 #include <unordered_map>
+#include <unordered_set>
 #include <vector>
 
 #include "common/types.hpp"
@@ -38,6 +39,7 @@ struct VisualFrame {
 struct LidarAssociation {
   TrackId track_id = 0;
   double range_m = 0.0;
+  bool planar = false;  // range interpolated at the landmark's azimuth: compare in the scan plane
 };
 
 /// A keyframe: its states (Ceres blocks) and what it observed.
@@ -52,6 +54,7 @@ struct Keyframe {
   std::shared_ptr<factors::GyroPreintegration> preint_from_prev;
   std::vector<LidarAssociation> lidar;             // beams associated with landmarks
   std::vector<LidarAssociation> lidar_candidates;  // beams near tracks (landmarks or not yet)
+  std::unordered_set<TrackId> lidar_rejected;      // associations removed as outliers: not again
   std::optional<LidarScan> scan;
   int segment = 0;  // increases at every re-initialisation after a tracking loss
 
@@ -66,7 +69,9 @@ struct Landmark {
   TrackId id = 0;
   int anchor_kf = -1;  // Keyframe::id
   Vec3 bearing_anchor_C = Vec3::UnitZ();
-  double rho[1] = {0.1};  // 1/m
+  double rho[1] = {0.1};              // 1/m
+  bool on_ground = false;             // has a camera-height factor (labelled by the plane fit)
+  Vec3 ground_up_C = -Vec3::UnitY();  // ground normal in the anchor camera frame (unit, up)
 };
 
 /// The window: keyframes oldest first, landmarks by track id, and (for the offline full

@@ -49,6 +49,17 @@ WindowOptions readWindowOptions(const Config& c) {
 
   o.lidar_radius_px = c.getInRange(p + "lidar_radius_px", o.lidar_radius_px, 0.1, 100.0);
   o.lidar_depth_gate = c.getInRange(p + "lidar_depth_gate", o.lidar_depth_gate, 0.0, 10.0);
+  o.lidar_edge_step = c.getInRange(p + "lidar_edge_step", o.lidar_edge_step, 0.0, 10.0);
+  o.lidar_interpolate = c.get<bool>(p + "lidar_interpolate", o.lidar_interpolate);
+  o.lidar_max_elevation_deg =
+      c.getInRange(p + "lidar_max_elevation_deg", o.lidar_max_elevation_deg, 0.0, 45.0);
+  o.lidar_outlier_sigmas =
+      c.getInRange(p + "lidar_outlier_sigmas", o.lidar_outlier_sigmas, 0.0, 1000.0);
+  o.lidar_outlier_fraction =
+      c.getInRange(p + "lidar_outlier_fraction", o.lidar_outlier_fraction, 0.0, 10.0);
+  o.lidar_loss = c.getChoice(p + "lidar_loss", o.lidar_loss, {"huber", "cauchy"});
+  o.lidar_edge_neighbours =
+      c.getIntInRange(p + "lidar_edge_neighbours", o.lidar_edge_neighbours, 0, 20);
   o.lidar_scan_time_tol_s =
       c.getInRange(p + "lidar_scan_time_tol_s", o.lidar_scan_time_tol_s, 0.0, 1.0);
   o.lidar_min_associations =
@@ -77,6 +88,17 @@ WindowOptions readWindowOptions(const Config& c) {
   o.refine_iterations = c.getIntInRange(p + "refine_iterations", o.refine_iterations, 1, 1000);
   o.marginalize_max_landmarks =
       c.getIntInRange(p + "marginalize_max_landmarks", o.marginalize_max_landmarks, 0, 100000);
+  o.use_ground_height = c.get<bool>(p + "use_ground_height", o.use_ground_height);
+  o.ground_height_sigma_m =
+      c.getInRange(p + "ground_height_sigma_m", o.ground_height_sigma_m, 1e-4, 10.0);
+  o.ground_max_distance_m =
+      c.getInRange(p + "ground_max_distance_m", o.ground_max_distance_m, 0.1, 1000.0);
+  o.ground_min_depression_deg =
+      c.getInRange(p + "ground_min_depression_deg", o.ground_min_depression_deg, 0.0, 89.0);
+  o.ground_scale_gate = c.getInRange(p + "ground_scale_gate", o.ground_scale_gate, 0.0, 1.0);
+  o.ground_inlier_fraction =
+      c.getInRange(p + "ground_inlier_fraction", o.ground_inlier_fraction, 1e-4, 1.0);
+  o.marginalize_reanchored = c.get<bool>(p + "marginalize_reanchored", o.marginalize_reanchored);
 
   o.gyro = factors::readGyroPreintegrationOptions(c, "gyro");
   return o;

@@ -38,7 +38,7 @@ struct WindowOptions {
   double pixel_sigma = -1.0;                  // image noise, px; < 0: the rig's value
   double bearing_huber_sigmas = 2.0;          // Huber loss threshold, in units of the bearing sigma
   double lidar_range_sigma_m = -1.0;          // LiDAR range noise, m; < 0: the rig's value
-  double lidar_huber_sigmas = 2.0;            // Huber loss threshold of LiDAR factors, in sigmas
+  double lidar_huber_sigmas = 2.0;            // robust loss threshold of LiDAR factors, sigmas
   double gyro_bias_random_walk = -1.0;        // rad/s^2/sqrt(Hz); < 0: the rig's value
   double gyro_bias_prior_sigma_radps = 0.02;  // prior on the first keyframe's bias, rad/s
   double gauge_sigma_position_m = 1e-4;       // first-keyframe pose prior before the first marg., m
@@ -46,9 +46,30 @@ struct WindowOptions {
   double rotation_prior_sigma_rad = 2e-3;     // per-frame motion-only refinement: gyro rotation
                                               // prior sigma on top of the preintegration noise, rad
 
+  // Camera-height factor (ground landmarks near the camera; needs the rig's camera height).
+  bool use_ground_height = true;           // false: scale from the LiDAR (and initialisation) only
+  double ground_height_sigma_m = 0.06;     // noise of a ground point's height below the camera, m
+  double ground_max_distance_m = 6.0;      // ground points used up to this distance, m
+  double ground_min_depression_deg = 8.0;  // ... and at least this far below the horizon, deg
+  double ground_scale_gate = 0.2;          // the keyframe's fitted plane must be within this
+                                           // fraction of the camera height (scale sanity)
+  double ground_inlier_fraction = 0.04;    // a point is on the plane within this fraction of the
+                                           // camera height; after a solve it keeps its factor
+                                           // within twice that
+
   // LiDAR association.
   double lidar_radius_px = 4.0;          // beam end point to observation, px
   double lidar_depth_gate = 0.25;        // relative depth agreement once the scale is set
+  double lidar_edge_step = 0.05;         // beams used only on smooth surfaces: adjacent ranges
+                                         // differ by less than this fraction of the range
+  int lidar_edge_neighbours = 2;         // ... over this many beams on each side (0: off)
+  bool lidar_interpolate = true;         // associate landmarks near the scan plane with the range
+  double lidar_max_elevation_deg = 1.0;  // interpolated at their azimuth (false: nearest beam end
+                                         // within lidar_radius_px); elevation gate, deg
+  double lidar_outlier_sigmas = 3.0;     // after a solve an association is removed when its
+  double lidar_outlier_fraction = 0.05;  // residual exceeds this many sigmas and this fraction
+                                         // of the range
+  std::string lidar_loss = "huber";      // robust loss of LiDAR factors: huber | cauchy
   double lidar_scan_time_tol_s = 0.004;  // a scan belongs to a frame within this time, s
   int lidar_min_associations = 8;        // fewer (or disagreeing) at initialisation: ground plane
 
@@ -72,8 +93,11 @@ struct WindowOptions {
   int motion_only_iterations = 5;             // per-frame pose refinement
   std::string refine = "none";                // none | full (offline: re-optimise all keyframes)
   int refine_iterations = 30;                 // full refinement iterations
-  int marginalize_max_landmarks = 60;         // ending landmarks Schur-complemented into the prior
-                                              // (the rest are dropped; the Schur step is dense)
+  int marginalize_max_landmarks = 0;          // ending landmarks Schur-complemented into the prior,
+                                              // strongest first (the rest are dropped); 0: all
+  bool marginalize_reanchored = true;  // landmarks that outlive the oldest keyframe: their factors
+                                       // go into the prior before they are re-anchored (VINS-Mono;
+                                       // false: dropped, and the prior keeps little but the gyro)
 
   factors::GyroPreintegrationOptions gyro;  // "gyro." keys
 };

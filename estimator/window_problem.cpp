@@ -7,6 +7,7 @@
 #include <unordered_map>
 
 #include "factors/bearing_factor.hpp"
+#include "factors/ground_height_factor.hpp"
 #include "factors/lidar_range_factor.hpp"
 #include "factors/parameterization.hpp"
 #include "factors/pose_prior_factor.hpp"
@@ -71,6 +72,20 @@ std::vector<FactorSpec> buildFactors(const std::vector<Keyframe*>& keyframes,
       out.push_back(std::move(f));
     }
   }
+  if (model.camera_height_m > 0.0) {
+    for (auto& [id, lm] : landmarks) {
+      if (!lm.on_ground || !kf_of.count(lm.anchor_kf) || !(lm.rho[0] > 0.0)) continue;
+      FactorSpec f;
+      f.kind = FactorKind::kGround;
+      f.cost = std::make_unique<factors::GroundHeightFactor>(
+          lm.bearing_anchor_C, lm.ground_up_C, model.camera_height_m, model.ground_sigma_m);
+      f.loss = std::make_unique<ceres::HuberLoss>(model.ground_huber);
+      f.blocks = {lm.rho};
+      f.track = id;
+      f.kf_id = lm.anchor_kf;
+      out.push_back(std::move(f));
+    }
+  }
   for (Keyframe* kf : keyframes) {
     for (const LidarAssociation& a : kf->lidar) {
       auto lm_it = landmarks.find(a.track_id);
@@ -80,15 +95,20 @@ std::vector<FactorSpec> buildFactors(const std::vector<Keyframe*>& keyframes,
       if (anchor_it == kf_of.end() || !(lm.rho[0] > 0.0)) continue;
       FactorSpec f;
       f.kind = FactorKind::kLidar;
-      f.loss = std::make_unique<ceres::HuberLoss>(model.lidar_huber);
+      if (model.lidar_cauchy)
+        f.loss = std::make_unique<ceres::CauchyLoss>(model.lidar_huber);
+      else
+        f.loss = std::make_unique<ceres::HuberLoss>(model.lidar_huber);
       if (anchor_it->second == kf) {
-        f.cost = std::make_unique<factors::LidarRangeAnchorFactor>(
-            lm.bearing_anchor_C, a.range_m, model.T_B_C, model.T_B_L, model.lidar_sigma_m);
+        f.cost = std::make_unique<factors::LidarRangeAnchorFactor>(lm.bearing_anchor_C, a.range_m,
+                                                                   model.T_B_C, model.T_B_L,
+                                                                   model.lidar_sigma_m, a.planar);
         f.blocks = {lm.rho};
       } else {
         Keyframe* anchor = anchor_it->second;
-        f.cost = std::make_unique<factors::LidarRangeFactor>(
-            lm.bearing_anchor_C, a.range_m, model.T_B_C, model.T_B_L, model.lidar_sigma_m);
+        f.cost =
+            std::make_unique<factors::LidarRangeFactor>(lm.bearing_anchor_C, a.range_m, model.T_B_C,
+                                                        model.T_B_L, model.lidar_sigma_m, a.planar);
         f.blocks = {anchor->q_W_B, anchor->p_W_B, kf->q_W_B, kf->p_W_B, lm.rho};
       }
       f.track = a.track_id;

@@ -24,7 +24,8 @@ struct WindowModel {
   double bearing_sigma_rad = 0.5 / 305.0;  // pixel sigma / focal px
   double bearing_huber = 2.0;              // Huber threshold on the whitened residual (sigmas)
   double lidar_sigma_m = 0.02;
-  double lidar_huber = 2.0;
+  double lidar_huber = 2.0;          // robust loss threshold on the whitened residual (sigmas)
+  bool lidar_cauchy = false;         // Cauchy (an association far off pulls ever less), else Huber
   double bias_random_walk = 2.0e-5;  // rad/s^2/sqrt(Hz)
   double bias_prior_sigma_radps = 0.02;
   double gauge_sigma_position_m = 1e-4;
@@ -32,6 +33,9 @@ struct WindowModel {
   double min_rho = 1.0 / 1000.0;  // 1/m
   double max_rho = 1.0 / 0.1;     // 1/m
   bool use_gyro = true;
+  double camera_height_m = 0.0;  // ground landmarks' depth below the camera, m (<= 0: no factor)
+  double ground_sigma_m = 0.03;  // camera-height factor noise, m
+  double ground_huber = 2.0;     // its Huber threshold, sigmas
 };
 
 /// What fixes the gauge of the window: a pose prior on one keyframe (before the first
@@ -43,7 +47,16 @@ struct WindowGauge {
   std::shared_ptr<const factors::MarginalizationInfo> marginalization;
 };
 
-enum class FactorKind { kBearing, kGyro, kBiasWalk, kBiasPrior, kPosePrior, kLidar, kMarginal };
+enum class FactorKind {
+  kBearing,
+  kGyro,
+  kBiasWalk,
+  kBiasPrior,
+  kPosePrior,
+  kLidar,
+  kMarginal,
+  kGround
+};
 
 /// One residual block before it goes into a Problem or a MarginalizationInfo.
 struct FactorSpec {
@@ -95,8 +108,8 @@ std::vector<ObservationError> observationErrors(const std::vector<Keyframe*>& ke
 /// states, its gyro / bias / gauge factors, the previous prior, and the landmarks it anchors that
 /// are listed in `marginalize_tracks` (Schur-complemented out with all their factors) go into the
 /// new prior. Factors of the other landmarks it anchors are dropped, not marginalised: those that
-/// live on are re-anchored by the caller (nothing is counted twice), the rest are forgotten (the
-/// caller bounds their number because the prior's Schur step is dense). Returns the new prior
+/// live on are re-anchored by the caller (nothing is counted twice), the rest are forgotten.
+/// Each landmark is Schur-complemented on its own (a 1x1 block). Returns the new prior
 /// (null when the marginalisation failed; the caller then keeps a pose prior instead).
 std::shared_ptr<const factors::MarginalizationInfo> marginalizeOldest(
     WindowMap& map, const WindowModel& model, const WindowGauge& gauge,

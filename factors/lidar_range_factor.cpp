@@ -10,14 +10,15 @@ constexpr double kMinDistance = 1e-9;      // m
 }  // namespace
 
 LidarRangeFactor::LidarRangeFactor(const Vec3& bearing_Ca, double range_m, const SE3& T_B_C,
-                                   const SE3& T_B_L, double sigma_m)
+                                   const SE3& T_B_L, double sigma_m, bool planar)
     : bearing_Ca_(bearing_Ca.normalized()),
       range_m_(range_m),
       inv_sigma_(1.0 / sigma_m),
       R_B_C_(T_B_C.rotation()),
       R_L_B_(T_B_L.rotation().transpose()),
       t_B_C_(T_B_C.translation()),
-      t_B_L_(T_B_L.translation()) {}
+      t_B_L_(T_B_L.translation()),
+      planar_(planar) {}
 
 bool LidarRangeFactor::Evaluate(double const* const* parameters, double* residuals,
                                 double** jacobians) const {
@@ -33,7 +34,8 @@ bool LidarRangeFactor::Evaluate(double const* const* parameters, double* residua
   const Vec3 Rp_W = R_W_Ba * p_Ba;
   const Vec3 p_W = Rp_W + p_a;
   const Mat3 R_L_W = R_L_B_ * R_W_Bk.transpose();
-  const Vec3 p_L = R_L_W * (p_W - p_k) - R_L_B_ * t_B_L_;
+  Vec3 p_L = R_L_W * (p_W - p_k) - R_L_B_ * t_B_L_;
+  if (planar_) p_L.z() = 0.0;  // the distance in the scan plane; its gradient has no z part
   const double d = p_L.norm();
   if (!(d > kMinDistance)) return false;
   residuals[0] = (d - range_m_) * inv_sigma_;
@@ -55,8 +57,9 @@ bool LidarRangeFactor::Evaluate(double const* const* parameters, double* residua
 }
 
 LidarRangeAnchorFactor::LidarRangeAnchorFactor(const Vec3& bearing_Ca, double range_m,
-                                               const SE3& T_B_C, const SE3& T_B_L, double sigma_m)
-    : range_m_(range_m), inv_sigma_(1.0 / sigma_m) {
+                                               const SE3& T_B_C, const SE3& T_B_L, double sigma_m,
+                                               bool planar)
+    : range_m_(range_m), inv_sigma_(1.0 / sigma_m), planar_(planar) {
   const SE3 T_L_C = T_B_L.inverse() * T_B_C;
   bearing_L_ = T_L_C.rotation() * bearing_Ca.normalized();
   t_L_C_ = T_L_C.translation();
@@ -66,7 +69,8 @@ bool LidarRangeAnchorFactor::Evaluate(double const* const* parameters, double* r
                                       double** jacobians) const {
   const double rho = parameters[0][0];
   if (!(rho > kMinInverseDepth)) return false;
-  const Vec3 p_L = bearing_L_ / rho + t_L_C_;
+  Vec3 p_L = bearing_L_ / rho + t_L_C_;
+  if (planar_) p_L.z() = 0.0;
   const double d = p_L.norm();
   if (!(d > kMinDistance)) return false;
   residuals[0] = (d - range_m_) * inv_sigma_;

@@ -16,10 +16,12 @@ namespace ovo::factors {
 /// rho -> 0 (the distance goes to infinity and d/d rho ~ 1/rho^2): the estimator creates these only
 /// for landmarks with a sane depth; Evaluate fails (Ceres rejects the step) for rho <= 1e-6.
 /// When a == k use LidarRangeAnchorFactor (Ceres forbids one block twice in a residual).
+/// planar: the distance in the scan plane, ||(p_L.x, p_L.y)||, for a range interpolated between
+/// the beams at the landmark's azimuth (a landmark just off the plane on an upright surface).
 class LidarRangeFactor final : public ceres::SizedCostFunction<1, 4, 3, 4, 3, 1> {
  public:
   LidarRangeFactor(const Vec3& bearing_Ca, double range_m, const SE3& T_B_C, const SE3& T_B_L,
-                   double sigma_m);
+                   double sigma_m, bool planar = false);
   bool Evaluate(double const* const* parameters, double* residuals,
                 double** jacobians) const override;
 
@@ -28,6 +30,7 @@ class LidarRangeFactor final : public ceres::SizedCostFunction<1, 4, 3, 4, 3, 1>
   double range_m_, inv_sigma_;
   Mat3 R_B_C_, R_L_B_;
   Vec3 t_B_C_, t_B_L_;
+  bool planar_;
 };
 
 /// The same beam when the scan keyframe is the landmark's anchor: the residual depends on rho only,
@@ -35,7 +38,7 @@ class LidarRangeFactor final : public ceres::SizedCostFunction<1, 4, 3, 4, 3, 1>
 class LidarRangeAnchorFactor final : public ceres::SizedCostFunction<1, 1> {
  public:
   LidarRangeAnchorFactor(const Vec3& bearing_Ca, double range_m, const SE3& T_B_C, const SE3& T_B_L,
-                         double sigma_m);
+                         double sigma_m, bool planar = false);
   bool Evaluate(double const* const* parameters, double* residuals,
                 double** jacobians) const override;
 
@@ -43,6 +46,7 @@ class LidarRangeAnchorFactor final : public ceres::SizedCostFunction<1, 1> {
   Vec3 bearing_L_;  // R_L_C b_a
   Vec3 t_L_C_;
   double range_m_, inv_sigma_;
+  bool planar_;
 };
 
 }  // namespace ovo::factors

@@ -107,21 +107,42 @@ const std::vector<double>& MarginalizationInfo::linearizationPoint(const double*
 }
 
 bool MarginalizationInfo::marginalize() {
-  // Tangent layout: dropped blocks first (size m), then kept blocks.
+  for (double* p : order_) {
+    Block& b = blocks_.at(p);
+    b.tangent = b.quaternion ? kQuatTangent : b.ambient;
+  }
+  // Dropped scalar blocks that share no residual with another dropped scalar block (inverse-depth
+  // landmarks) are eliminated one by one: their part of H is diagonal, so each costs O(k^2) in
+  // the k tangent dimensions it touches instead of a dense factorisation over all of them.
+  std::unordered_map<const double*, int> scalar_index;
+  for (double* p : order_) {
+    const Block& b = blocks_.at(p);
+    if (b.dropped && b.tangent == 1) scalar_index.emplace(p, -1);
+  }
+  for (const Linearized& lin : residuals_) {
+    int scalars = 0;
+    for (const double* p : lin.blocks) scalars += scalar_index.count(p) > 0;
+    if (scalars < 2) continue;
+    for (const double* p : lin.blocks) scalar_index.erase(p);
+  }
+  int num_scalars = 0;
+  for (double* p : order_)
+    if (auto it = scalar_index.find(p); it != scalar_index.end()) it->second = num_scalars++;
+
+  // Tangent layout of the dense part: the other dropped blocks first (size m), then kept blocks.
   std::unordered_map<const double*, int> offset;
   int m = 0, n = 0;
   kept_.clear();
   for (double* p : order_) {
-    Block& b = blocks_.at(p);
-    b.tangent = b.quaternion ? kQuatTangent : b.ambient;
-    if (b.dropped) {
+    const Block& b = blocks_.at(p);
+    if (b.dropped && !scalar_index.count(p)) {
       offset[p] = m;
       m += b.tangent;
     }
   }
   n = m;
   for (double* p : order_) {
-    Block& b = blocks_.at(p);
+    const Block& b = blocks_.at(p);
     if (!b.dropped) {
       offset[p] = n;
       n += b.tangent;
@@ -129,6 +150,13 @@ bool MarginalizationInfo::marginalize() {
     }
   }
   if (kept_.empty()) return false;
+
+  // Per scalar block l: h_ll, g_l and its coupling H_xl to the dense part (sparse by offset).
+  struct ScalarRow {
+    double h = 0.0, g = 0.0;
+    std::unordered_map<int, Eigen::VectorXd> coupling;  // dense offset -> H_xl segment
+  };
+  std::vector<ScalarRow> scalars(static_cast<std::size_t>(num_scalars));
 
   Eigen::MatrixXd H = Eigen::MatrixXd::Zero(n, n);
   Eigen::VectorXd g = Eigen::VectorXd::Zero(n);
@@ -142,13 +170,40 @@ bool MarginalizationInfo::marginalize() {
               : lin.jacobians_ambient[i];
     }
     for (std::size_t i = 0; i < lin.blocks.size(); ++i) {
+      const auto si = scalar_index.find(lin.blocks[i]);
+      if (si != scalar_index.end()) {
+        ScalarRow& row = scalars[static_cast<std::size_t>(si->second)];
+        row.h += J_tan[i].squaredNorm();
+        row.g += J_tan[i].col(0).dot(lin.residual);
+        for (std::size_t j = 0; j < lin.blocks.size(); ++j) {
+          if (j == i) continue;
+          const int oj = offset.at(lin.blocks[j]);
+          Eigen::VectorXd c = J_tan[j].transpose() * J_tan[i].col(0);
+          auto [it, inserted] = row.coupling.try_emplace(oj, c);
+          if (!inserted) it->second += c;
+        }
+        continue;
+      }
       const int oi = offset.at(lin.blocks[i]);
       const int ti = static_cast<int>(J_tan[i].cols());
       g.segment(oi, ti) += J_tan[i].transpose() * lin.residual;
       for (std::size_t j = 0; j < lin.blocks.size(); ++j) {
+        if (scalar_index.count(lin.blocks[j])) continue;
         const int oj = offset.at(lin.blocks[j]);
         H.block(oi, oj, ti, J_tan[j].cols()) += J_tan[i].transpose() * J_tan[j];
       }
+    }
+  }
+
+  // Scalar blocks out: H -= H_xl H_lx / h_ll, g -= H_xl g_l / h_ll (a zero h_ll, i.e. an
+  // unobserved block, contributes nothing, as the pseudo-inverse below would).
+  for (const ScalarRow& row : scalars) {
+    if (!(row.h > options_.eigenvalue_threshold_abs)) continue;
+    const double inv_h = 1.0 / row.h;
+    for (const auto& [oi, ci] : row.coupling) {
+      g.segment(oi, ci.size()) -= ci * (row.g * inv_h);
+      for (const auto& [oj, cj] : row.coupling)
+        H.block(oi, oj, ci.size(), cj.size()) -= ci * cj.transpose() * inv_h;
     }
   }
 

@@ -84,6 +84,26 @@ TEST(LidarRangeAnchorFactor, AgreesWithGeneralFactorWhenScanIsAtAnchor) {
   }
 }
 
+TEST(LidarRangeFactor, PlanarMeasuresTheDistanceInTheScanPlane) {
+  std::mt19937 rng(16);
+  for (int trial = 0; trial < 5; ++trial) {
+    const RangeScene s = randomRangeScene(rng, 3.0 + trial);
+    const Vec3 p_L = (s.T_W_Bk * s.T_B_L).inverse() * (s.T_W_Ba * s.T_B_C * (s.bearing_Ca / s.rho));
+    const double in_plane = p_L.head<2>().norm();
+    const double sigma = 0.05;
+    const LidarRangeFactor planar(s.bearing_Ca, in_plane + 0.1, s.T_B_C, s.T_B_L, sigma, true);
+    EXPECT_NEAR(testing::evaluate(planar, blocksOf(s))[0], -0.1 / sigma, 1e-8);
+    testing::expectJacobiansMatch(planar, blocksOf(s), {true, false, true, false, false}, 1e-6);
+    RangeScene at_anchor = s;
+    at_anchor.T_W_Bk = s.T_W_Ba;
+    const LidarRangeFactor general(s.bearing_Ca, 2.5, s.T_B_C, s.T_B_L, sigma, true);
+    const LidarRangeAnchorFactor anchor(s.bearing_Ca, 2.5, s.T_B_C, s.T_B_L, sigma, true);
+    EXPECT_NEAR(testing::evaluate(anchor, {{s.rho}})[0],
+                testing::evaluate(general, blocksOf(at_anchor))[0], 1e-9);
+    testing::expectJacobiansMatch(anchor, {{s.rho}}, {false}, 1e-6);
+  }
+}
+
 TEST(PosePriorFactor, ZeroAtPriorAndJacobiansMatchNumeric) {
   std::mt19937 rng(15);
   const SE3 T0 = testing::randomPose(rng);

@@ -1,0 +1,20 @@
+#include "factors/ground_height_factor.hpp"
+
+namespace ovo::factors {
+
+GroundHeightFactor::GroundHeightFactor(const Vec3& bearing_Ca, const Vec3& up_Ca,
+                                       double camera_height_m, double sigma_m)
+    : down_(-up_Ca.normalized().dot(bearing_Ca.normalized())),
+      height_m_(camera_height_m),
+      inv_sigma_(1.0 / sigma_m) {}
+
+bool GroundHeightFactor::Evaluate(double const* const* parameters, double* residuals,
+                                  double** jacobians) const {
+  const double rho = parameters[0][0];
+  if (!(rho > 1e-6) || !(down_ > 0.0)) return false;
+  residuals[0] = (down_ / rho - height_m_) * inv_sigma_;
+  if (jacobians && jacobians[0]) jacobians[0][0] = -inv_sigma_ * down_ / (rho * rho);
+  return true;
+}
+
+}  // namespace ovo::factors

@@ -1,0 +1,30 @@
+// Camera-height factor: a landmark on the ground near the camera lies the known camera height
+// below it along the ground normal, which fixes the metric scale where the LiDAR sees little
+// (the window's version of the vo chain's ground-plane scale, DESIGN sections 4 and 7).
+#pragma once
+
+#include <ceres/sized_cost_function.h>
+
+#include "common/types.hpp"
+
+namespace ovo::factors {
+
+/// A landmark anchored in keyframe a (unit bearing b_a in C_a, inverse depth rho) on the ground,
+/// whose normal in C_a is up_Ca (unit, pointing from the ground to the camera):
+///   r = (-(up_Ca . b_a) / rho - h) / sigma_h,
+/// the point's depth below the camera along the normal minus the camera height h (m).
+/// Block: rho[1]. Evaluate fails for rho <= 1e-6 or a bearing that does not point below the
+/// horizon (up_Ca . b_a >= 0).
+class GroundHeightFactor final : public ceres::SizedCostFunction<1, 1> {
+ public:
+  GroundHeightFactor(const Vec3& bearing_Ca, const Vec3& up_Ca, double camera_height_m,
+                     double sigma_m);
+  bool Evaluate(double const* const* parameters, double* residuals,
+                double** jacobians) const override;
+
+ private:
+  double down_;  // -(up_Ca . b_a): the cosine of the bearing with the downward normal
+  double height_m_, inv_sigma_;
+};
+
+}  // namespace ovo::factors

@@ -1,0 +1,52 @@
+#include "factors/ground_height_factor.hpp"
+
+#include <gtest/gtest.h>
+
+#include "tests/factors/factor_test_util.hpp"
+
+namespace ovo::factors {
+namespace {
+
+// Camera 1 m above flat ground, looking forward and 30 deg down (x right, y down, z forward).
+struct GroundScene {
+  Vec3 up_C;
+  Vec3 bearing_C;
+  double depth_m;
+};
+
+GroundScene groundScene() {
+  GroundScene s;
+  const double pitch = 30.0 * M_PI / 180.0;
+  s.up_C = Vec3(0.0, -std::cos(pitch), -std::sin(pitch));  // world up seen from the camera
+  // A ground point 2 m ahead of and 0.5 m right of the camera foot, 1 m below the camera.
+  const Vec3 fwd_h(0.0, -std::sin(pitch), std::cos(pitch));  // horizontal forward in C
+  const Vec3 right(1.0, 0.0, 0.0);
+  const Vec3 p_C = 2.0 * fwd_h + 0.5 * right - 1.0 * s.up_C;
+  s.depth_m = p_C.norm();
+  s.bearing_C = p_C / s.depth_m;
+  return s;
+}
+
+TEST(GroundHeightFactor, ZeroOnTheGroundAndPositiveForAPointBelowIt) {
+  const GroundScene s = groundScene();
+  const GroundHeightFactor f(s.bearing_C, s.up_C, 1.0, 0.02);
+  EXPECT_NEAR(testing::evaluate(f, {{1.0 / s.depth_m}})[0], 0.0, 1e-12);
+  // Twice as far along the ray: the point is 2 m below the camera, 1 m too deep = 50 sigmas.
+  EXPECT_NEAR(testing::evaluate(f, {{0.5 / s.depth_m}})[0], 50.0, 1e-9);
+  EXPECT_LT(testing::evaluate(f, {{2.0 / s.depth_m}})[0], 0.0);
+}
+
+TEST(GroundHeightFactor, JacobianMatchesNumeric) {
+  const GroundScene s = groundScene();
+  const GroundHeightFactor f(s.bearing_C, s.up_C, 1.0, 0.02);
+  testing::expectJacobiansMatch(f, {{0.8 / s.depth_m}}, {false});
+}
+
+TEST(GroundHeightFactor, RejectsABearingAboveTheHorizon) {
+  const GroundScene s = groundScene();
+  const GroundHeightFactor f(-s.bearing_C, s.up_C, 1.0, 0.02);
+  EXPECT_EQ(testing::evaluate(f, {{0.5}}).size(), 0);
+}
+
+}  // namespace
+}  // namespace ovo::factors
