@@ -63,27 +63,9 @@ SoA toSoA(const test::TwoViewScene& s) {
   return out;
 }
 
-struct SoAd {
-  std::vector<double> prev, cur;
-  gpu::BearingsSoA view() const {
-    return {prev.data(), cur.data(), static_cast<int>(prev.size() / 3)};
-  }
-};
-
-SoAd toSoAd(const test::TwoViewScene& s) {
-  const std::size_t n = s.b_prev.size();
-  SoAd out{std::vector<double>(3 * n), std::vector<double>(3 * n)};
-  for (std::size_t i = 0; i < n; ++i)
-    for (int r = 0; r < 3; ++r) {
-      out.prev[r * n + i] = s.b_prev[i](r);
-      out.cur[r * n + i] = s.b_cur[i](r);
-    }
-  return out;
-}
-
 std::vector<float> hypotheses(const test::TwoViewScene& s) {
   std::vector<float> E(9 * kHypotheses, 0.0f);
-  const SoAd soa = toSoAd(s);
+  const test::SoAd soa = test::toSoAd(s);
   gpu::generateHypothesesCpu(soa.view(), 42, 0, kHypotheses, E.data());
   return E;
 }
@@ -166,7 +148,7 @@ void BM_RansacScoreEigenNaive(benchmark::State& state) {
 // 2000 minimal 8-point solves (sampling, batched Householder null vector, Jacobi projection), on
 // one thread or on the backend's threads.
 void BM_RansacHypotheses(benchmark::State& state, const std::string& backend) {
-  const SoAd soa = toSoAd(scene(1000));
+  const test::SoAd soa = test::toSoAd(scene(1000));
   auto scorer = gpu::makeScoringBackend(backend);
   std::vector<float> E(9 * kHypotheses);
   for (auto _ : state) {

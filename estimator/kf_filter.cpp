@@ -151,15 +151,7 @@ KfUpdateResult KfFilter::zeroRateUpdate(const Vec3& mean_rate_radps, double wind
   if (S_ldlt.info() != Eigen::Success || !S_ldlt.isPositive()) return result;
   result.chi2 = r.dot(S_ldlt.solve(r));
   const Eigen::Matrix<double, kErrorDim, 3> K = S_ldlt.solve(H * P_).transpose();  // P H^T S^-1
-  const Eigen::Matrix<double, kErrorDim, 1> dx = K * r;
-  if (!dx.allFinite()) return result;
-  R_W_B_ = R_W_B_ * so3::exp(dx.segment<3>(0));
-  b_g_ += dx.segment<3>(3);
-  R_W_Bk_ = R_W_Bk_ * so3::exp(dx.segment<3>(6));
-  const Mat9 IKH = Mat9::Identity() - K * H;
-  P_ = IKH * P_ * IKH.transpose() + K * R_noise * K.transpose();
-  P_ = 0.5 * (P_ + P_.transpose()).eval();
-  result.applied = true;
+  result.applied = applyCorrection(K, H, R_noise, K * r);
   return result;
 }
 
@@ -217,21 +209,23 @@ KfUpdateResult KfFilter::update(Timestamp t_ns, const Mat3& R_Bprev_Bcur,
 
   Eigen::Matrix<double, kErrorDim, 3> K = S_ldlt.solve(H * P_).transpose();  // P H^T S^-1
   if (result.bias_frozen) K.middleRows<3>(3).setZero();
-  const Eigen::Matrix<double, kErrorDim, 1> dx = K * (-r);
-  if (!dx.allFinite()) {
-    cloneCurrent(t_frame);
-    return result;
-  }
+  result.applied = applyCorrection(K, H, R_noise, K * (-r));
+  cloneCurrent(t_frame);
+  return result;
+}
+
+bool KfFilter::applyCorrection(const Eigen::Matrix<double, kErrorDim, 3>& K,
+                               const Eigen::Matrix<double, 3, kErrorDim>& H, const Mat3& R_noise,
+                               const Eigen::Matrix<double, kErrorDim, 1>& dx) {
+  if (!dx.allFinite()) return false;
   R_W_B_ = R_W_B_ * so3::exp(dx.segment<3>(0));
   b_g_ += dx.segment<3>(3);
   R_W_Bk_ = R_W_Bk_ * so3::exp(dx.segment<3>(6));
-  // Joseph form: valid for the frozen-bias (suboptimal) gain too.
+  // Joseph form: valid for any gain (also the frozen-bias, suboptimal one).
   const Mat9 IKH = Mat9::Identity() - K * H;
   P_ = IKH * P_ * IKH.transpose() + K * R_noise * K.transpose();
   P_ = 0.5 * (P_ + P_.transpose()).eval();
-  result.applied = true;
-  cloneCurrent(t_frame);
-  return result;
+  return true;
 }
 
 }  // namespace ovo::estimator

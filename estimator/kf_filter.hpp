@@ -121,6 +121,11 @@ class KfFilter {
   void integrate(const Vec3& w_radps, double dt_s);
   void predictWithoutGyro(double dt_s);
   void cloneCurrent(Timestamp t_ns);
+  /// x <- x [+] dx and the Joseph-form covariance update for gain K; false (nothing changed) when
+  /// dx is not finite.
+  bool applyCorrection(const Eigen::Matrix<double, kErrorDim, 3>& K,
+                       const Eigen::Matrix<double, 3, kErrorDim>& H, const Mat3& R_noise,
+                       const Eigen::Matrix<double, kErrorDim, 1>& dx);
 
   KfOptions options_;
   std::optional<Timestamp> t_ns_;        // filter time

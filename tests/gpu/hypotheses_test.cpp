@@ -21,22 +21,6 @@ namespace {
 
 constexpr int L = kEightPointLanes;
 
-struct SoAd {
-  std::vector<double> prev, cur;
-  BearingsSoA view() const { return {prev.data(), cur.data(), static_cast<int>(prev.size() / 3)}; }
-};
-
-SoAd toSoAd(const test::TwoViewScene& s) {
-  const std::size_t n = s.b_prev.size();
-  SoAd out{std::vector<double>(3 * n), std::vector<double>(3 * n)};
-  for (std::size_t i = 0; i < n; ++i)
-    for (int r = 0; r < 3; ++r) {
-      out.prev[r * n + i] = s.b_prev[i](r);
-      out.cur[r * n + i] = s.b_cur[i](r);
-    }
-  return out;
-}
-
 test::TwoViewScene scene(double outlier_ratio, double noise_px, std::uint64_t seed,
                          Vec3 t = Vec3(0.15, -0.05, -0.5)) {
   test::TwoViewSceneOptions o;
@@ -82,7 +66,7 @@ TEST(Hypotheses, EveryLaneIsExactOnItsOwnNoiseFreeSample) {
 
 TEST(Hypotheses, NoisySolutionsHaveSingularValuesOneOneZero) {
   const auto s = scene(0.3, 2.0, 8);
-  const SoAd soa = toSoAd(s);
+  const test::SoAd soa = test::toSoAd(s);
   std::vector<float> E(9 * 64);
   generateHypothesesCpu(soa.view(), 3, 0, 64, E.data());
   for (int h = 0; h < 64; ++h) {
@@ -97,7 +81,7 @@ TEST(Hypotheses, NoisySolutionsHaveSingularValuesOneOneZero) {
 
 TEST(Hypotheses, SameBitsWhateverTheRangeSplitAndAsTheSingleSolve) {
   const auto s = scene(0.3, 0.5, 9);
-  const SoAd soa = toSoAd(s);
+  const test::SoAd soa = test::toSoAd(s);
   const int count = 45;  // not a multiple of the lane count
   std::vector<float> whole(9 * count), split(9 * count);
   generateHypothesesCpu(soa.view(), 7, 0, count, whole.data());

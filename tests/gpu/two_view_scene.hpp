@@ -10,6 +10,7 @@
 
 #include "common/so3.hpp"
 #include "common/types.hpp"
+#include "gpu/hypotheses.hpp"
 
 namespace ovo::test {
 
@@ -74,6 +75,25 @@ inline TwoViewScene makeTwoViewScene(const TwoViewSceneOptions& o) {
     s.is_outlier[i] = 1;
   }
   return s;
+}
+
+/// The scene's bearings as rows of x, y, z (structure of arrays), for gpu::BearingsSoA.
+struct SoAd {
+  std::vector<double> prev, cur;
+  gpu::BearingsSoA view() const {
+    return {prev.data(), cur.data(), static_cast<int>(prev.size() / 3)};
+  }
+};
+
+inline SoAd toSoAd(const TwoViewScene& s) {
+  const std::size_t n = s.b_prev.size();
+  SoAd out{std::vector<double>(3 * n), std::vector<double>(3 * n)};
+  for (std::size_t i = 0; i < n; ++i)
+    for (int r = 0; r < 3; ++r) {
+      out.prev[r * n + i] = s.b_prev[i](r);
+      out.cur[r * n + i] = s.b_cur[i](r);
+    }
+  return out;
 }
 
 }  // namespace ovo::test
