@@ -289,6 +289,14 @@ FrameEstimate WindowCore::processFrame(const VisualFrame& frame_in) {
       // Held before initialisation: the pose is known, and the two-view reference moves to
       // the last still frame so that no translation is lost when the robot starts.
       e.tracked = true;
+      // Zero-rate update: the raw gyro rotation of a still frame is bias * dt plus noise.
+      if (auto pi0 = preintegrate(last_t_, frame.t_ns, Vec3::Zero());
+          pi0 && pi0->status() == factors::GyroPreintegration::Status::kOk) {
+        still_rotation_ += so3::log(pi0->deltaR());
+        still_time_s_ += dt;
+        if (still_time_s_ >= options_.standstill_min_bias_s)
+          bias_ = still_rotation_ / still_time_s_;
+      }
       if (!use_lidar_ || scanAt(frame.t_ns) != nullptr) startReference(frame, e.T_W_B);
     }
   } else if (!initialized_) {
@@ -798,14 +806,32 @@ bool WindowCore::tryInitialize(const VisualFrame& frame, const SE3& T_W_B_pred,
         best_lo = i;
       }
     }
-    if (static_cast<int>(best_n) >= options_.lidar_min_associations / 2 &&
-        static_cast<int>(ratios.size()) >= options_.lidar_min_associations &&
-        best_n >= ratios.size() / 3) {
+    // A second group almost as large (beams through a canopy gap onto the next row give a
+    // consistent wrong ratio) makes the vote a coin toss: put the initialisation off to a later
+    // frame (more parallax, another scan), and after kMaxDeferrals use the ground plane.
+    std::size_t second_n = 0;
+    for (std::size_t i = 0, j = 0; i < ratios.size(); ++i) {
+      while (j < ratios.size() && ratios[j] <= ratios[i] * 1.2) ++j;
+      if (j <= best_lo || i >= best_lo + best_n) second_n = std::max(second_n, j - i);
+    }
+    constexpr int kMaxDeferrals = 20;
+    const bool ambiguous = best_n > 0 && 2 * second_n >= best_n;
+    if (ambiguous && ambiguous_scale_deferrals_ < kMaxDeferrals) {
+      ++ambiguous_scale_deferrals_;
+      note("LiDAR scale ambiguous at an initialisation (two groups of range ratios): put off");
+      return false;
+    }
+    if (ambiguous) {
+      note("LiDAR scale stayed ambiguous at an initialisation: ground-plane scale there");
+    } else if (static_cast<int>(best_n) >= options_.lidar_min_associations / 2 &&
+               static_cast<int>(ratios.size()) >= options_.lidar_min_associations &&
+               best_n >= ratios.size() / 3) {
       scale = ratios[best_lo + best_n / 2];
       lidar_scale_ = true;
     } else {
       note("LiDAR associated too few points at an initialisation: ground-plane scale there");
     }
+    ambiguous_scale_deferrals_ = 0;
   }
   if (!scale && setup_.camera_height_m) {
     const Vec3 up_C0 = R_B_C.transpose() * Vec3::UnitZ();
@@ -841,6 +867,16 @@ bool WindowCore::tryInitialize(const VisualFrame& frame, const SE3& T_W_B_pred,
   gauge_.kf_id = kf0->id;
   gauge_.T_W_B = ref.T_W_B;
   gauge_.b_g = bias_;
+  if (still_time_s_ >= options_.standstill_min_bias_s) {
+    // Mean of white noise over T: sigma = noise density / sqrt(T); plus the walk during T.
+    gauge_.b_g_sigma_radps =
+        std::sqrt(setup_.gyro_noise_density * setup_.gyro_noise_density / still_time_s_ +
+                  setup_.gyro_bias_random_walk * setup_.gyro_bias_random_walk * still_time_s_);
+    note("standstill before initialisation: gyro bias from its mean rate (zero-rate update)");
+    if (!still_gauge_) still_gauge_ = gauge_;
+  }
+  still_rotation_.setZero();
+  still_time_s_ = 0.0;
   associateLidar(*kf0, true);
   associateLidar(*kf1, true);
   initialized_ = true;
@@ -901,6 +937,10 @@ void WindowCore::refineAll() {
   gauge.kf_id = kfs.front()->id;
   gauge.T_W_B = kfs.front()->pose();
   gauge.b_g = kfs.front()->bias();
+  if (still_gauge_ && still_gauge_->kf_id == gauge.kf_id) {
+    gauge.b_g = still_gauge_->b_g;
+    gauge.b_g_sigma_radps = still_gauge_->b_g_sigma_radps;
+  }
   auto factors = buildFactors(kfs, landmarks, model_, gauge);
   // Each later segment keeps its online placement (nothing links segments but the gyro).
   for (std::size_t k = 1; k < kfs.size(); ++k) {

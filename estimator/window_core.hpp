@@ -116,7 +116,8 @@ class WindowCore {
   bool initialized_ = false;
   int next_kf_id_ = 0;
   int segment_ = 0;
-  bool lidar_scale_ = false;  // the current segment's scale came from the LiDAR
+  bool lidar_scale_ = false;           // the current segment's scale came from the LiDAR
+  int ambiguous_scale_deferrals_ = 0;  // initialisations put off for an ambiguous LiDAR scale
 
   // Last frame.
   bool have_last_ = false;
@@ -126,6 +127,11 @@ class WindowCore {
   Vec3 bias_ = Vec3::Zero();
   std::unordered_map<TrackId, TrackObservation> last_obs_;
   int lost_frames_ = 0;
+
+  // Standstill before initialisation: the mean gyro rate measures the bias (zero-rate update).
+  Vec3 still_rotation_ = Vec3::Zero();  // summed rotation vectors of the still frames (raw), rad
+  double still_time_s_ = 0.0;           // their duration, s
+  std::optional<WindowGauge> still_gauge_;  // the first keyframe's bias prior from it (refine)
 
   // Initialisation reference.
   struct Reference {

@@ -81,6 +81,8 @@ struct WindowOptions {
   // Standstill.
   double standstill_flow_px = 0.3;      // median flow to the previous frame below this ...
   double standstill_gyro_radps = 0.02;  // ... and |w - b_g| below this: standstill
+  double standstill_min_bias_s = 0.25;  // standstill before initialisation this long: its mean
+                                        // gyro rate is the bias (prior on the first keyframe), s
 
   // Tracking loss.
   double velocity_decay_per_s = 0.5;  // constant-velocity decay while lost (fraction kept per s)

@@ -154,7 +154,9 @@ std::vector<FactorSpec> buildFactors(const std::vector<Keyframe*>& keyframes,
     if (model.use_gyro) {
       FactorSpec b;
       b.kind = FactorKind::kBiasPrior;
-      b.cost = std::make_unique<BiasPriorFactor>(gauge.b_g, model.bias_prior_sigma_radps);
+      b.cost = std::make_unique<BiasPriorFactor>(gauge.b_g, gauge.b_g_sigma_radps > 0.0
+                                                                ? gauge.b_g_sigma_radps
+                                                                : model.bias_prior_sigma_radps);
       b.blocks = {kf->b_g};
       b.kf_id = kf->id;
       out.push_back(std::move(b));

@@ -41,9 +41,10 @@ struct WindowModel {
 /// What fixes the gauge of the window: a pose prior on one keyframe (before the first
 /// marginalisation) or the marginalisation prior (after), plus a bias prior.
 struct WindowGauge {
-  int kf_id = -1;               // keyframe with the pose and bias prior (-1: none)
-  SE3 T_W_B = SE3::Identity();  // its prior pose
-  Vec3 b_g = Vec3::Zero();      // its prior bias
+  int kf_id = -1;                 // keyframe with the pose and bias prior (-1: none)
+  SE3 T_W_B = SE3::Identity();    // its prior pose
+  Vec3 b_g = Vec3::Zero();        // its prior bias
+  double b_g_sigma_radps = -1.0;  // sigma of that bias prior, rad/s (<= 0: the model's)
   std::shared_ptr<const factors::MarginalizationInfo> marginalization;
 };
 

@@ -9,6 +9,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <map>
+#include <optional>
 
 #include "common/so3.hpp"
 #include "tests/estimator/window_synthetic.hpp"
@@ -113,6 +114,26 @@ TEST(WindowCore, HoldsThePoseDuringAStandstill) {
   int standstill = 0;
   for (const auto& e : r.estimates) standstill += e.status == "standstill";
   EXPECT_GT(standstill, 10);
+}
+
+TEST(WindowCore, StandstillBeforeInitialisationMeasuresTheGyroBias) {
+  SyntheticOptions o;
+  o.duration_s = 2.5;
+  o.start_hold_s = 1.0;
+  const auto seq = makeSyntheticSequence(o);
+  const auto r = run(seq);
+  expectAllFinite(r);
+  // The last held frame: ~0.95 s of still gyro, sigma = 1.7e-4 / sqrt(0.95 s) ~ 1.8e-4 rad/s.
+  std::optional<Vec3> bias_still;
+  for (std::size_t i = 0; i < seq.frames.size(); ++i)
+    if (toSeconds(seq.frames[i].t_ns - seq.frames.front().t_ns) < 0.95 &&
+        r.estimates[i].status == "standstill")
+      bias_still = r.estimates[i].gyro_bias;
+  ASSERT_TRUE(bias_still.has_value());
+  EXPECT_LT((*bias_still - o.gyro_bias).norm(), 1e-3) << bias_still->transpose();
+  EXPECT_NE(std::find_if(r.stats.notes.begin(), r.stats.notes.end(),
+                         [](const std::string& n) { return n.find("zero-rate") != n.npos; }),
+            r.stats.notes.end());
 }
 
 TEST(WindowCore, GyroGapAndDroppedFramesKeepTheTrajectoryContinuous) {
