@@ -50,7 +50,7 @@ case "$MODE" in
     OUT=${OVO_DEMO_OUT:-$ROOT/out/demo}
     SCENARIO=${OVO_DEMO_SCENARIO:-$ROOT/configs/sim/vineyard_row.yaml}
     echo "ovo: simulating $(basename "$SCENARIO" .yaml) into $OUT/data"
-    "$BUILD/ovo" simulate --config "$SCENARIO" --out "$OUT/data"
+    "$BUILD/ovo" simulate --config "$SCENARIO" --out "$OUT/data" --overwrite
     echo "ovo: running the window estimator"
     "$BUILD/ovo" run --dataset "$OUT/data" --estimator "${OVO_DEMO_ESTIMATOR:-window}" --out "$OUT/run"
     echo "ovo: trajectory, metrics and report in $OUT/run"
