@@ -32,14 +32,7 @@ OfflineRunResult runOffline(const io::Dataset& data, estimator::Estimator& est,
   const int total = static_cast<int>(data.images.size());
   for (int i = 0; i < total; ++i) {
     const auto& entry = data.images[i];
-    // Gyro up to and including the first sample at or after the frame time.
-    while (next_imu < data.imu.size()) {
-      const bool past = data.imu[next_imu].t_ns >= entry.t_ns;
-      est.addGyro(data.imu[next_imu++]);
-      if (past) break;
-    }
-    while (next_scan < data.scans.size() && data.scans[next_scan].t_ns <= entry.t_ns)
-      est.addScan(data.scans[next_scan++]);
+    estimator::feedUntilImage(entry.t_ns, data.imu, next_imu, data.scans, next_scan, est);
 
     const cv::Mat grey = io::loadImageGrey(entry);  // a corrupt image is an error naming the file
     result.frames.push_back(est.addImage(entry.t_ns, grey));

@@ -4,6 +4,7 @@
 // addImage() is both in sequence. No threads, files or command line here (DESIGN section 1).
 #pragma once
 
+#include <chrono>
 #include <cstdint>
 #include <memory>
 #include <opencv2/core.hpp>
@@ -52,6 +53,27 @@ struct FrameEstimate {
   double estimator_ms = 0.0;
   std::vector<TrackPx> tracks;  // optional (viewer): features of this image on tracks of age >= 2
 };
+
+/// Wall time since t0 in milliseconds (FrameEstimate::frontend_ms / estimator_ms).
+inline double msSince(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+}
+
+/// The order measurements reach an estimator (the offline runner, the tests, the replay into the
+/// online pipeline): before the image at t_image, the gyro up to and including the first sample at
+/// or after t_image, and the scans up to t_image. next_imu / next_scan are cursors into imu /
+/// scans; sink is anything with addGyro and addScan (an Estimator, WindowCore, the OnlinePipeline).
+template <typename Sink>
+void feedUntilImage(Timestamp t_image, const std::vector<ImuSample>& imu, std::size_t& next_imu,
+                    const std::vector<LidarScan>& scans, std::size_t& next_scan, Sink& sink) {
+  while (next_imu < imu.size()) {
+    const bool past = imu[next_imu].t_ns >= t_image;
+    sink.addGyro(imu[next_imu++]);
+    if (past) break;
+  }
+  while (next_scan < scans.size() && scans[next_scan].t_ns <= t_image)
+    sink.addScan(scans[next_scan++]);
+}
 
 /// Counters an estimator reports at the end of a run (merged into metrics.json).
 struct EstimatorStats {

@@ -13,6 +13,7 @@
 #include "estimator/kf_filter.hpp"
 #include "estimator/lidar_scale.hpp"
 #include "estimator/vo_chain.hpp"
+#include "estimator/window_init.hpp"  // medianParallaxDeg
 
 namespace ovo::estimator {
 namespace {
@@ -187,13 +188,7 @@ class KfEstimator final : public Estimator {
       prior = setup_.T_B_C.linear().transpose() * R_Bprev_Bcur.transpose() * setup_.T_B_C.linear();
     }
     if (!frontend_last_t_ || t_ns > *frontend_last_t_) frontend_last_t_ = t_ns;
-    auto frame = std::make_unique<ChainFrame>();
-    frame->t_ns = t_ns;
-    frame->step = chain_.step(t_ns, grey, prior);
-    frame->tracks = chain_.currentTracks();
-    frame->frontend_ms =
-        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-    return frame;
+    return chain_.track(t_ns, grey, prior, t0);
   }
 
   FrameEstimate update(std::unique_ptr<FrontendFrame> frame_in) override {
@@ -287,8 +282,7 @@ class KfEstimator final : public Estimator {
     while (!base_trajectory_.empty() &&
            toSeconds(t_ns - base_trajectory_.front().t_ns) > 2.0 * options_.lidar_baseline_s + 1.0)
       base_trajectory_.pop_front();
-    f.estimator_ms =
-        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    f.estimator_ms = msSince(t0);
     return f;
   }
 
@@ -323,14 +317,8 @@ class KfEstimator final : public Estimator {
     const double var =
         std::max(0.0, frame_gyro_sq_sum_ / frame_gyro_count_ - mean.squaredNorm()) / 3.0;
     if (std::sqrt(var) > options_.still_gyro_std_radps) return false;
-    std::vector<double> angles;
-    angles.reserve(s.bearings_prev.size());
-    for (std::size_t i = 0; i < s.bearings_prev.size() && i < s.bearings_cur.size(); ++i)
-      angles.push_back(std::atan2(s.bearings_prev[i].cross(s.bearings_cur[i]).norm(),
-                                  s.bearings_prev[i].dot(s.bearings_cur[i])));
-    auto mid = angles.begin() + static_cast<std::ptrdiff_t>(angles.size() / 2);
-    std::nth_element(angles.begin(), mid, angles.end());
-    return *mid < options_.still_flow_deg * M_PI / 180.0;
+    return medianParallaxDeg(s.bearings_prev, s.bearings_cur, Mat3::Identity()) <
+           options_.still_flow_deg;
   }
 
   // Propagates the filter with every gyro sample up to t (the rest wait for later frames), and

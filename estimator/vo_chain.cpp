@@ -138,6 +138,17 @@ ChainStep VoChain::step(Timestamp t_ns, const cv::Mat& grey,
   return s;
 }
 
+std::unique_ptr<ChainFrame> VoChain::track(Timestamp t_ns, const cv::Mat& grey,
+                                           const std::optional<Mat3>& R_cur_prev_prior,
+                                           std::chrono::steady_clock::time_point t0) {
+  auto frame = std::make_unique<ChainFrame>();
+  frame->t_ns = t_ns;
+  frame->step = step(t_ns, grey, R_cur_prev_prior);
+  frame->tracks = currentTracks();
+  frame->frontend_ms = msSince(t0);
+  return frame;
+}
+
 std::vector<TrackPx> VoChain::currentTracks() const {
   std::vector<TrackPx> out;
   for (const auto& obs : frontend_.tracks().currentObservations())

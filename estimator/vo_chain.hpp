@@ -70,6 +70,11 @@ class VoChain {
   void setHistorySpan(Timestamp span_ns) { history_span_ns_ = span_ns; }
   /// The features of the last image on tracks of age >= 2 (viewers).
   std::vector<TrackPx> currentTracks() const;
+  /// The frontend-stage snapshot of one image for Estimator::track(): step() and the viewer's
+  /// tracks; frontend_ms is the wall time since t0 (the start of the caller's track()).
+  std::unique_ptr<ChainFrame> track(Timestamp t_ns, const cv::Mat& grey,
+                                    const std::optional<Mat3>& R_cur_prev_prior,
+                                    std::chrono::steady_clock::time_point t0);
   const frontend::Frontend& frontend() const { return frontend_; }
 
  private:

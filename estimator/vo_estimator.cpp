@@ -26,10 +26,6 @@ VoOptions readVoOptions(const Config& cfg) {
   return o;
 }
 
-double msSince(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-}
-
 class VoEstimator final : public Estimator {
  public:
   VoEstimator(const SensorSetup& setup, const Config& config)
@@ -49,13 +45,7 @@ class VoEstimator final : public Estimator {
   void addScan(const LidarScan&) override {}
 
   std::unique_ptr<FrontendFrame> track(Timestamp t_ns, const cv::Mat& grey) override {
-    const auto t0 = std::chrono::steady_clock::now();
-    auto frame = std::make_unique<ChainFrame>();
-    frame->t_ns = t_ns;
-    frame->step = chain_.step(t_ns, grey);
-    frame->tracks = chain_.currentTracks();
-    frame->frontend_ms = msSince(t0);
-    return frame;
+    return chain_.track(t_ns, grey, std::nullopt, std::chrono::steady_clock::now());
   }
 
   FrameEstimate update(std::unique_ptr<FrontendFrame> frame_in) override {

@@ -15,10 +15,6 @@ namespace {
 
 constexpr double kDegToRad = M_PI / 180.0;
 
-double msSince(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-}
-
 double median(std::vector<double> v) {
   if (v.empty()) return 0.0;
   auto mid = v.begin() + static_cast<long>(v.size() / 2);
@@ -795,14 +791,19 @@ bool WindowCore::tryInitialize(const VisualFrame& frame, const SE3& T_W_B_pred,
         if (unit > 1e-6) ratios.push_back(m.beam_dist_C / unit);
       }
     }
-    // The largest group of ratios that agree within 10 % (a beam end next to a feature that
+    // The largest group of ratios that agree within 20 % (a beam end next to a feature that
     // lies behind a canopy gap gives a wrong ratio): its median, if the group is big enough.
+    // group_end[i]: one past the last ratio within 20 % of ratios[i].
     std::sort(ratios.begin(), ratios.end());
-    std::size_t best_lo = 0, best_n = 0;
+    std::vector<std::size_t> group_end(ratios.size());
     for (std::size_t i = 0, j = 0; i < ratios.size(); ++i) {
       while (j < ratios.size() && ratios[j] <= ratios[i] * 1.2) ++j;
-      if (j - i > best_n) {
-        best_n = j - i;
+      group_end[i] = j;
+    }
+    std::size_t best_lo = 0, best_n = 0;
+    for (std::size_t i = 0; i < ratios.size(); ++i) {
+      if (group_end[i] - i > best_n) {
+        best_n = group_end[i] - i;
         best_lo = i;
       }
     }
@@ -810,10 +811,9 @@ bool WindowCore::tryInitialize(const VisualFrame& frame, const SE3& T_W_B_pred,
     // consistent wrong ratio) makes the vote a coin toss: put the initialisation off to a later
     // frame (more parallax, another scan), and after kMaxDeferrals use the ground plane.
     std::size_t second_n = 0;
-    for (std::size_t i = 0, j = 0; i < ratios.size(); ++i) {
-      while (j < ratios.size() && ratios[j] <= ratios[i] * 1.2) ++j;
-      if (j <= best_lo || i >= best_lo + best_n) second_n = std::max(second_n, j - i);
-    }
+    for (std::size_t i = 0; i < ratios.size(); ++i)
+      if (group_end[i] <= best_lo || i >= best_lo + best_n)
+        second_n = std::max(second_n, group_end[i] - i);
     constexpr int kMaxDeferrals = 20;
     const bool ambiguous = best_n > 0 && 2 * second_n >= best_n;
     if (ambiguous && ambiguous_scale_deferrals_ < kMaxDeferrals) {

@@ -9,10 +9,6 @@
 namespace ovo::estimator {
 namespace {
 
-double msSince(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-}
-
 /// The window's frontend-stage result: the tracked bearings of one image.
 struct WindowFrontendFrame : FrontendFrame {
   VisualFrame visual;

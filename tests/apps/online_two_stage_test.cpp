@@ -67,13 +67,7 @@ std::vector<estimator::FrameEstimate> runPipelineSlowly(const io::Dataset& data,
   std::size_t next_imu = 0, next_scan = 0;
   for (std::size_t i = 0; i < data.images.size(); ++i) {
     const Timestamp t = data.images[i].t_ns;
-    while (next_imu < data.imu.size()) {
-      const bool past = data.imu[next_imu].t_ns >= t;
-      pipeline.addGyro(data.imu[next_imu++]);
-      if (past) break;
-    }
-    while (next_scan < data.scans.size() && data.scans[next_scan].t_ns <= t)
-      pipeline.addScan(data.scans[next_scan++]);
+    estimator::feedUntilImage(t, data.imu, next_imu, data.scans, next_scan, pipeline);
     pipeline.addImage(t, io::loadImageGrey(data.images[i]));
     std::unique_lock lock(m);
     EXPECT_TRUE(cv.wait_for(lock, std::chrono::seconds(60), [&] { return out.size() == i + 1; }));

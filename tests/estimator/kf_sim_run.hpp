@@ -83,16 +83,14 @@ inline EstimatorRun runEstimator(const std::string& name, const SimSequence& seq
   setup.has_gyro = setup.has_gyro && use_gyro;
   setup.has_lidar = setup.has_lidar && use_lidar;
   auto est = estimator::makeEstimator(name, setup, cfg);
+  static const std::vector<ImuSample> kNoImu;
+  static const std::vector<LidarScan> kNoScans;
+  const std::vector<ImuSample>& imu = use_gyro ? seq.imu : kNoImu;
+  const std::vector<LidarScan>& scans = use_lidar ? seq.scans : kNoScans;
   std::size_t next_imu = 0, next_scan = 0;
   EstimatorRun run;
   for (const auto& [t_ns, grey] : seq.images) {
-    while (use_gyro && next_imu < seq.imu.size()) {
-      const bool past = seq.imu[next_imu].t_ns >= t_ns;
-      est->addGyro(seq.imu[next_imu++]);
-      if (past) break;
-    }
-    while (use_lidar && next_scan < seq.scans.size() && seq.scans[next_scan].t_ns <= t_ns)
-      est->addScan(seq.scans[next_scan++]);
+    estimator::feedUntilImage(t_ns, imu, next_imu, scans, next_scan, *est);
     run.frames.push_back(est->addImage(t_ns, grey));
     run.frames.back().tracks.clear();
   }

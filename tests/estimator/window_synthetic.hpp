@@ -188,20 +188,14 @@ inline SyntheticSequence makeSyntheticSequence(const SyntheticOptions& o,
   return seq;
 }
 
-/// Feeds a sequence to anything with addGyro / addScan / processFrame (gyro up to the first
-/// sample after each frame, scans up to the frame time); calls on_frame(index, estimate).
+/// Feeds a sequence to anything with addGyro / addScan / processFrame in the offline runner's
+/// order (estimator::feedUntilImage); calls on_frame(index, estimate).
 template <typename Core, typename OnFrame>
 void feedSequence(const SyntheticSequence& seq, Core& core, OnFrame on_frame) {
   std::size_t next_imu = 0, next_scan = 0;
   for (std::size_t f = 0; f < seq.frames.size(); ++f) {
     const auto& frame = seq.frames[f];
-    while (next_imu < seq.imu.size()) {
-      const bool past = seq.imu[next_imu].t_ns >= frame.t_ns;
-      core.addGyro(seq.imu[next_imu++]);
-      if (past) break;
-    }
-    while (next_scan < seq.scans.size() && seq.scans[next_scan].t_ns <= frame.t_ns)
-      core.addScan(seq.scans[next_scan++]);
+    estimator::feedUntilImage(frame.t_ns, seq.imu, next_imu, seq.scans, next_scan, core);
     on_frame(f, core.processFrame(frame.visual));
   }
   core.finish();
