@@ -140,6 +140,24 @@ class ScriptedEstimator final : public estimator::Estimator {
 
 cv::Mat greyImage() { return cv::Mat(24, 32, CV_8UC1, cv::Scalar(100)); }
 
+// Counts the pipeline's outputs; waitFor(n) blocks until n have come out (false after 10 s).
+struct OutputCounter {
+  std::mutex m;
+  std::condition_variable cv;
+  int outputs = 0;
+  OnlinePipeline::OutputCallback callback() {
+    return [this](const OnlineOutput&) {
+      std::lock_guard lock(m);
+      ++outputs;
+      cv.notify_all();
+    };
+  }
+  bool waitFor(int n) {
+    std::unique_lock lock(m);
+    return cv.wait_for(lock, std::chrono::seconds(10), [&] { return outputs == n; });
+  }
+};
+
 constexpr Timestamp kMs = 1'000'000;
 
 TEST(OnlinePipeline, FeedsGyroAndScansInTimeOrderBeforeTheImageTheyPrecede) {
@@ -287,23 +305,14 @@ TEST(OnlinePipeline, AFrameWaitsForTheGyroSampleAfterItsTime) {
   ScriptedEstimator est;
   OnlineOptions options;
   options.gyro_wait_ms = 60'000;  // wait for the gyro, however long
-  std::mutex m;
-  std::condition_variable cv;
-  int outputs = 0;
-  OnlinePipeline pipeline(est, options, [&](const OnlineOutput&) {
-    std::lock_guard lock(m);
-    ++outputs;
-    cv.notify_all();
-  });
+  OutputCounter counter;
+  OnlinePipeline pipeline(est, options, counter.callback());
   pipeline.start();
   pipeline.addGyro({0, Vec3::Zero(), Vec3::Zero()});
   pipeline.addImage(10 * kMs, greyImage());
   std::this_thread::sleep_for(50ms);  // give the pipeline a chance to (wrongly) go ahead
   pipeline.addGyro({15 * kMs, Vec3::Zero(), Vec3::Zero()});
-  {
-    std::unique_lock lock(m);
-    ASSERT_TRUE(cv.wait_for(lock, 10s, [&] { return outputs == 1; }));
-  }
+  ASSERT_TRUE(counter.waitFor(1));
   const auto calls = est.calls();
   ASSERT_EQ(calls.size(), 3u);
   EXPECT_EQ(calls[0].kind, 'g');
@@ -317,21 +326,12 @@ TEST(OnlinePipeline, AFrameStopsWaitingForALateGyroAfterTheTimeout) {
   ScriptedEstimator est;
   OnlineOptions options;
   options.gyro_wait_ms = 20;
-  std::mutex m;
-  std::condition_variable cv;
-  int outputs = 0;
-  OnlinePipeline pipeline(est, options, [&](const OnlineOutput&) {
-    std::lock_guard lock(m);
-    ++outputs;
-    cv.notify_all();
-  });
+  OutputCounter counter;
+  OnlinePipeline pipeline(est, options, counter.callback());
   pipeline.start();
   pipeline.addGyro({0, Vec3::Zero(), Vec3::Zero()});
   pipeline.addImage(10 * kMs, greyImage());
-  {
-    std::unique_lock lock(m);
-    ASSERT_TRUE(cv.wait_for(lock, 10s, [&] { return outputs == 1; }));
-  }
+  ASSERT_TRUE(counter.waitFor(1));
   const auto calls = est.calls();
   ASSERT_EQ(calls.size(), 2u);
   EXPECT_EQ(calls[1].kind, 'i');
