@@ -69,13 +69,15 @@ class Triangulation {
  public:
   static constexpr int kNumSuper = 3;
 
-  explicit Triangulation(std::size_t capacity) {
+  // Empties the triangulation (keeping its buffers) and starts from the enclosing triangle.
+  void reset(std::size_t capacity, const IPoint& s0, const IPoint& s1, const IPoint& s2) {
+    pts_.clear();
+    tris_.clear();
     pts_.reserve(capacity + kNumSuper);
     tris_.reserve(2 * capacity + 8);
-  }
-
-  void init(const IPoint& s0, const IPoint& s1, const IPoint& s2) {
-    pts_ = {s0, s1, s2};
+    pts_.push_back(s0);
+    pts_.push_back(s1);
+    pts_.push_back(s2);
     tris_.push_back({{0, 1, 2}, {-1, -1, -1}, true});
     last_ = 0;
   }
@@ -197,10 +199,21 @@ class Triangulation {
   int last_ = 0;
 };
 
-// Triangulates `points`; vertex_point[v] is the input index of vertex v (the lowest index among
-// repeated points, -1 for the enclosing triangle's vertices).
-Triangulation triangulate(const std::vector<Vec2>& points, std::vector<int>* vertex_point) {
-  Triangulation tri(points.size());
+// Buffers of one triangulation and its support count, reused from call to call (the frontend calls
+// the filter twice per frame; fresh allocations of this size cost page faults every time).
+struct Workspace {
+  Triangulation tri;
+  std::vector<std::pair<std::int64_t, int>> keyed;
+  std::vector<IPoint> ipts;
+  std::vector<int> vertex_point;  // input index of vertex v (lowest among repeats; -1: enclosing)
+  std::vector<Vec2> vertex_flow;
+  std::vector<int> vertex_support;
+  std::vector<std::uint8_t> real;
+};
+thread_local Workspace t_workspace;
+
+// Triangulates `points` into ws->tri and ws->vertex_point.
+void triangulate(const std::vector<Vec2>& points, Workspace* ws) {
   double u_min = std::numeric_limits<double>::max(), v_min = u_min;
   double u_max = -u_min, v_max = -u_min;
   for (const Vec2& p : points) {
@@ -214,26 +227,25 @@ Triangulation triangulate(const std::vector<Vec2>& points, std::vector<int>* ver
   const double scale = std::min(256.0, double(1 << 20) / extent);
   const auto range = static_cast<std::int64_t>(std::ceil(extent * scale)) + 1;
   const std::int64_t k = 16 * range + 16;
-  tri.init({-k, -k}, {3 * k, -k}, {-k, 3 * k});
+  ws->tri.reset(points.size(), {-k, -k}, {3 * k, -k}, {-k, 3 * k});
   // Insert along a serpentine over 32 px strips: consecutive points are neighbours, so each walk
   // is a few steps.
   constexpr double kStripPx = 32.0;
-  std::vector<std::pair<std::int64_t, int>> keyed(points.size());
-  std::vector<IPoint> ipts(points.size());
+  ws->keyed.resize(points.size());
+  ws->ipts.resize(points.size());
   for (int i = 0; i < static_cast<int>(points.size()); ++i) {
-    ipts[i] = {std::llround((points[i].x() - u_min) * scale),
-               std::llround((points[i].y() - v_min) * scale)};
+    ws->ipts[i] = {std::llround((points[i].x() - u_min) * scale),
+                   std::llround((points[i].y() - v_min) * scale)};
     const auto strip = static_cast<std::int64_t>((points[i].y() - v_min) / kStripPx);
-    const std::int64_t u = ipts[i].x;
-    keyed[i] = {(strip << 32) + ((strip & 1) ? (std::int64_t{1} << 31) - u : u), i};
+    const std::int64_t u = ws->ipts[i].x;
+    ws->keyed[i] = {(strip << 32) + ((strip & 1) ? (std::int64_t{1} << 31) - u : u), i};
   }
-  std::sort(keyed.begin(), keyed.end());
-  vertex_point->assign(points.size() + Triangulation::kNumSuper, -1);
-  for (const auto& [key, i] : keyed) {
-    int& owner = (*vertex_point)[tri.insert(ipts[i])];
+  std::sort(ws->keyed.begin(), ws->keyed.end());
+  ws->vertex_point.assign(points.size() + Triangulation::kNumSuper, -1);
+  for (const auto& [key, i] : ws->keyed) {
+    int& owner = ws->vertex_point[ws->tri.insert(ws->ipts[i])];
     if (owner < 0 || i < owner) owner = i;
   }
-  return tri;
 }
 
 bool isReal(const Tri& t) {
@@ -246,12 +258,12 @@ bool isReal(const Tri& t) {
 std::vector<std::array<int, 3>> delaunayTriangles(const std::vector<Vec2>& points) {
   std::vector<std::array<int, 3>> triangles;
   if (points.size() < 3) return triangles;
-  std::vector<int> vertex_point;
-  const Triangulation tri = triangulate(points, &vertex_point);
-  for (const Tri& t : tri.triangles()) {
+  Workspace& ws = t_workspace;
+  triangulate(points, &ws);
+  for (const Tri& t : ws.tri.triangles()) {
     if (!isReal(t)) continue;
     triangles.push_back(
-        {vertex_point[t.vert[0]], vertex_point[t.vert[1]], vertex_point[t.vert[2]]});
+        {ws.vertex_point[t.vert[0]], ws.vertex_point[t.vert[1]], ws.vertex_point[t.vert[2]]});
   }
   return triangles;
 }
@@ -259,42 +271,46 @@ std::vector<std::array<int, 3>> delaunayTriangles(const std::vector<Vec2>& point
 std::vector<std::uint8_t> delaunaySupportFilter(const std::vector<Vec2>& px_cur,
                                                 const std::vector<Vec2>& flow, double flow_tol_px,
                                                 int min_support) {
+  std::vector<std::uint8_t> keep;
+  delaunaySupportFilter(px_cur, flow, flow_tol_px, min_support, &keep);
+  return keep;
+}
+
+void delaunaySupportFilter(const std::vector<Vec2>& px_cur, const std::vector<Vec2>& flow,
+                           double flow_tol_px, int min_support, std::vector<std::uint8_t>* keep) {
   const int n = static_cast<int>(px_cur.size());
-  std::vector<int> support(n, 0);
-  if (n >= 3) {
-    const double tol2 = flow_tol_px * flow_tol_px;
-    std::vector<int> vertex_point;
-    const Triangulation tri = triangulate(px_cur, &vertex_point);
-    const std::vector<Tri>& tris = tri.triangles();
-    // Flows and supports by vertex (insertion order, spatially coherent like the triangles).
-    const int num_vertices = static_cast<int>(vertex_point.size());
-    std::vector<Vec2> vertex_flow(num_vertices, Vec2::Zero());
-    std::vector<int> vertex_support(num_vertices, 0);
-    for (int v = Triangulation::kNumSuper; v < num_vertices; ++v) {
-      if (vertex_point[v] >= 0) vertex_flow[v] = flow[vertex_point[v]];
-    }
-    std::vector<std::uint8_t> real(tris.size());
-    for (std::size_t t = 0; t < tris.size(); ++t) real[t] = isReal(tris[t]);
-    // Each edge of a real triangle once: from the lower-numbered of its two real triangles.
-    for (int t = 0; t < static_cast<int>(tris.size()); ++t) {
-      if (!real[t]) continue;
-      const Tri& tr = tris[t];
-      for (int k = 0; k < 3; ++k) {
-        const int other = tr.nbr[k];
-        if (other >= 0 && other < t && real[other]) continue;
-        const int a = tr.vert[k == 2 ? 0 : k + 1], b = tr.vert[k == 0 ? 2 : k - 1];
-        const int pass = (vertex_flow[a] - vertex_flow[b]).squaredNorm() < tol2;
-        vertex_support[a] += pass;
-        vertex_support[b] += pass;
-      }
-    }
-    for (int v = Triangulation::kNumSuper; v < num_vertices; ++v) {
-      if (vertex_point[v] >= 0) support[vertex_point[v]] = vertex_support[v];
+  keep->assign(n, min_support <= 0 ? 1 : 0);
+  if (n < 3) return;
+  Workspace& ws = t_workspace;
+  const double tol2 = flow_tol_px * flow_tol_px;
+  triangulate(px_cur, &ws);
+  const std::vector<Tri>& tris = ws.tri.triangles();
+  // Flows and supports by vertex (insertion order, spatially coherent like the triangles).
+  const int num_vertices = static_cast<int>(ws.vertex_point.size());
+  ws.vertex_flow.assign(num_vertices, Vec2::Zero());
+  ws.vertex_support.assign(num_vertices, 0);
+  for (int v = Triangulation::kNumSuper; v < num_vertices; ++v) {
+    if (ws.vertex_point[v] >= 0) ws.vertex_flow[v] = flow[ws.vertex_point[v]];
+  }
+  ws.real.resize(tris.size());
+  for (std::size_t t = 0; t < tris.size(); ++t) ws.real[t] = isReal(tris[t]);
+  // Each edge of a real triangle once: from the lower-numbered of its two real triangles.
+  for (int t = 0; t < static_cast<int>(tris.size()); ++t) {
+    if (!ws.real[t]) continue;
+    const Tri& tr = tris[t];
+    for (int k = 0; k < 3; ++k) {
+      const int other = tr.nbr[k];
+      if (other >= 0 && other < t && ws.real[other]) continue;
+      const int a = tr.vert[k == 2 ? 0 : k + 1], b = tr.vert[k == 0 ? 2 : k - 1];
+      const int pass = (ws.vertex_flow[a] - ws.vertex_flow[b]).squaredNorm() < tol2;
+      ws.vertex_support[a] += pass;
+      ws.vertex_support[b] += pass;
     }
   }
-  std::vector<std::uint8_t> keep(n);
-  for (int i = 0; i < n; ++i) keep[i] = support[i] >= min_support ? 1 : 0;
-  return keep;
+  for (int v = Triangulation::kNumSuper; v < num_vertices; ++v) {
+    const int i = ws.vertex_point[v];
+    if (i >= 0) (*keep)[i] = ws.vertex_support[v] >= min_support ? 1 : 0;
+  }
 }
 
 }  // namespace ovo::frontend

@@ -20,5 +20,8 @@ std::vector<std::array<int, 3>> delaunayTriangles(const std::vector<Vec2>& point
 std::vector<std::uint8_t> delaunaySupportFilter(const std::vector<Vec2>& px_cur,
                                                 const std::vector<Vec2>& flow, double flow_tol_px,
                                                 int min_support);
+/// The same into *keep (reuses its buffer; the triangulation's buffers are reused per thread).
+void delaunaySupportFilter(const std::vector<Vec2>& px_cur, const std::vector<Vec2>& flow,
+                           double flow_tol_px, int min_support, std::vector<std::uint8_t>* keep);
 
 }  // namespace ovo::frontend

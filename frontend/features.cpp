@@ -7,12 +7,6 @@
 
 namespace ovo::frontend {
 
-// Four samples at radius sqrt(2), then rings at 3, 3 sqrt(2) and 5 pixels; each sample holds both
-// du and dv, so the descriptor sees the gradient field around the feature in all directions.
-const DescriptorOffset kDescriptorPattern[16] = {
-    {-1, -1}, {1, -1}, {-1, 1}, {1, 1}, {-3, 0}, {3, 0}, {0, -3}, {0, 3},
-    {-3, -3}, {3, -3}, {-3, 3}, {3, 3}, {-5, 0}, {5, 0}, {0, -5}, {0, 5}};
-
 void computeFilters(const cv::Mat& grey, FilterImages* out) {
   const int w = grey.cols, h = grey.rows;
   const std::size_t n = static_cast<std::size_t>(w) * h;
@@ -28,15 +22,7 @@ void computeFilters(const cv::Mat& grey, FilterImages* out) {
 }
 
 void computeDescriptor(const FilterImages& filters, int u, int v, std::uint8_t* out) {
-  const int w = filters.width;
-  const std::uint8_t* du = filters.du.data();
-  const std::uint8_t* dv = filters.dv.data();
-  for (int k = 0; k < 16; ++k) {
-    const std::ptrdiff_t i = static_cast<std::ptrdiff_t>(v + kDescriptorPattern[k].dv) * w + u +
-                             kDescriptorPattern[k].du;
-    out[2 * k] = du[i];
-    out[2 * k + 1] = dv[i];
-  }
+  kernels::describe(filters.du.data(), filters.dv.data(), filters.width, u, v, out);
 }
 
 Vec2 FeatureFrame::pixel(int i, bool refined) const {

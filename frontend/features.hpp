@@ -3,6 +3,7 @@
 // descriptors of Sobel samples, and the features of one frame binned on a grid for matching.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <opencv2/core.hpp>
 #include <vector>
@@ -51,7 +52,11 @@ struct DescriptorOffset {
   int du;
   int dv;
 };
-extern const DescriptorOffset kDescriptorPattern[16];
+inline constexpr std::array<DescriptorOffset, 16> kDescriptorPattern = [] {
+  std::array<DescriptorOffset, 16> pattern{};
+  for (int k = 0; k < 16; ++k) pattern[k] = {kernels::kPatternDu[k], kernels::kPatternDv[k]};
+  return pattern;
+}();
 
 /// Writes the 32-byte descriptor at integer pixel (u, v) of the detection grid; the pixel must be
 /// at least kDescriptorRadius + kFilterBorder from the edge.

@@ -12,6 +12,11 @@ constexpr int kDescriptorBytes = 32;
 constexpr int kFilterBorder = 2;  // filter outputs within this many pixels of the edge are neutral
 constexpr int kDescriptorRadius = 5;  // largest |offset| of a descriptor sample
 
+/// The 16 descriptor sample offsets (pixels): four samples at radius sqrt(2), then rings at 3,
+/// 3 sqrt(2) and 5 pixels; bytes 2k and 2k + 1 of a descriptor hold du and dv at offset k.
+constexpr std::int8_t kPatternDu[16] = {-1, 1, -1, 1, -3, 3, 0, 0, -3, 3, -3, 3, -5, 5, 0, 0};
+constexpr std::int8_t kPatternDv[16] = {-1, -1, 1, 1, 0, 0, -3, 3, -3, -3, 3, 3, 0, 0, -5, 5};
+
 /// 5x5 Sobel: du = [1 4 6 4 1]^T (vertical smoothing) x [-1 -2 0 2 1] (horizontal derivative, as
 /// correlation, positive where intensity grows with u); dv likewise transposed. Output is
 /// sat8((sum >> 7) + 128), so a unit-slope ramp gives 129. Border pixels are 128.
@@ -61,6 +66,17 @@ std::uint32_t sad32(const std::uint8_t* a, const std::uint8_t* b);
 
 /// Sum of squared differences of two 32-byte descriptors.
 std::uint32_t ssd32(const std::uint8_t* a, const std::uint8_t* b);
+
+/// Writes the 32-byte descriptor at pixel (u, v) of the Sobel planes du, dv (row stride
+/// `width`); (u, v) at least kDescriptorRadius from the edge.
+void describe(const std::uint8_t* du, const std::uint8_t* dv, int width, int u, int v,
+              std::uint8_t* out);
+
+/// SSD of `ref` against the descriptors at the 3x3 pixels around (u, v):
+/// out[(dv + 1) * 3 + du + 1] for du, dv in {-1, 0, 1}; (u, v) at least kDescriptorRadius + 1 from
+/// the edge. Equal to ssd32(ref, describe(u + du, v + dv)).
+void ssdAround(const std::uint8_t* du, const std::uint8_t* dv, int width, int u, int v,
+               const std::uint8_t* ref, std::uint32_t* out);
 
 /// Best (lowest SAD, lowest index on ties) candidate i in [begin, end) with
 /// u0 <= us[i] <= u1 and v0 <= vs[i] <= v1; descriptors of candidate i at descs + 32 i.

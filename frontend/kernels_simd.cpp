@@ -1,7 +1,13 @@
 // Kernels of kernels.hpp. Written as simple row loops over int16 row buffers so that the compiler
 // vectorises them for the native ISA (this file gets OVO_KERNEL_FLAGS); descriptor costs use
 // SSE2 / AVX2 SAD instructions.
+// GCC 12 warns inside its own AVX-512 headers (the _mm512_undefined_* placeholders of unmasked
+// intrinsics, GCC bug 105593); the warnings point at the header, so silence them there.
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wuninitialized"
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
 #include <immintrin.h>
+#pragma GCC diagnostic pop
 
 #include <algorithm>
 #include <cstdlib>
@@ -32,6 +38,33 @@ inline std::uint32_t sadInline(const std::uint8_t* a, const std::uint8_t* b) {
                                     _mm_cvtsi128_si32(_mm_unpackhi_epi64(s, s)));
 #endif
 }
+
+#if defined(__AVX512BW__)
+// Candidates inside the window (of 16) from which searchBest computes all 16 SADs at once.
+constexpr int kMinVectorSad = 6;
+
+// SADs of the 16 consecutive 32-byte descriptors at descs against the query held twice in
+// query2, lane k for descriptor k. vpsadbw leaves four partial sums per descriptor (one per 8
+// bytes); they are added within 128-bit lanes, then across the two lanes of each descriptor.
+inline __m512i sad16(const __m512i query2, const std::uint8_t* descs) {
+  __m512i total[4];
+  for (int g = 0; g < 4; ++g) {
+    // Descriptors 4g .. 4g + 3: a holds 4g, 4g + 1, b holds 4g + 2, 4g + 3.
+    const std::uint8_t* d = descs + 128 * g;
+    const __m512i a = _mm512_sad_epu8(_mm512_loadu_si512(d), query2);
+    const __m512i b = _mm512_sad_epu8(_mm512_loadu_si512(d + 64), query2);
+    // Each qword of a, b is below 2^16: pair them as dwords (a low, b high) and sum.
+    const __m512i ab = _mm512_or_si512(a, _mm512_slli_epi64(b, 32));
+    const __m512i s2 = _mm512_add_epi32(ab, _mm512_shuffle_epi32(ab, _MM_PERM_BADC));
+    // dword 0: 4g, 1: 4g + 2 (lane 0); dword 8: 4g + 1, 9: 4g + 3 (lane 2).
+    total[g] = _mm512_add_epi32(s2, _mm512_shuffle_i64x2(s2, s2, _MM_SHUFFLE(2, 3, 0, 1)));
+  }
+  const __m512i pick = _mm512_setr_epi32(0, 8, 1, 9, 16, 24, 17, 25, 0, 8, 1, 9, 16, 24, 17, 25);
+  const __m512i lo = _mm512_permutex2var_epi32(total[0], pick, total[1]);  // 0..7 in dwords 0..7
+  const __m512i hi = _mm512_permutex2var_epi32(total[2], pick, total[3]);  // 8..15
+  return _mm512_inserti64x4(lo, _mm512_castsi512_si256(hi), 1);
+}
+#endif
 
 // Per-thread row buffers, reused across calls.
 struct RowBuffers {
@@ -186,12 +219,25 @@ void extremumFilterT(const std::int16_t* in, int width, int height, int r, std::
 // True when a pixel before (u, v) in raster order within the (2 r + 1)^2 window has `value`.
 bool earlierEqual(const std::int16_t* response, int width, int u, int v, int r, int value) {
   const int u0 = std::max(0, u - r), u1 = std::min(width - 1, u + r);
+#if defined(__AVX512BW__)
+  const __m512i target = _mm512_set1_epi16(static_cast<std::int16_t>(value));
+#endif
   for (int v2 = std::max(0, v - r); v2 <= v; ++v2) {
     const std::int16_t* row = response + static_cast<std::ptrdiff_t>(v2) * width;
     const int end = v2 == v ? u - 1 : u1;
+#if defined(__AVX512BW__)
+    for (int u2 = u0; u2 <= end; u2 += 32) {
+      const int n = std::min(32, end - u2 + 1);
+      const __mmask32 lanes = n == 32 ? ~__mmask32{0} : (__mmask32{1} << n) - 1;
+      if (_mm512_mask_cmpeq_epi16_mask(lanes, _mm512_maskz_loadu_epi16(lanes, row + u2), target)) {
+        return true;
+      }
+    }
+#else
     for (int u2 = u0; u2 <= end; ++u2) {
       if (row[u2] == value) return true;
     }
+#endif
   }
   return false;
 }
@@ -257,6 +303,15 @@ void nonMaximumSuppression(const std::int16_t* blob, const std::int16_t* corner,
                                            (((c[u] == c_max[u]) & (c[u] >= tau)) << 3));
     }
     for (int u = margin; u < u_end; ++u) {
+      // Skip eight flag-free pixels at once (candidates are sparse).
+      if (u + 8 <= u_end) {
+        std::uint64_t word;
+        std::memcpy(&word, flags + u, 8);
+        if (word == 0) {
+          u += 7;
+          continue;
+        }
+      }
       if (!flags[u]) continue;
       for (int cls = 0; cls < 4; ++cls) {
         if (!(flags[u] & (1 << cls))) continue;
@@ -271,6 +326,56 @@ void nonMaximumSuppression(const std::int16_t* blob, const std::int16_t* corner,
 }
 
 std::uint32_t sad32(const std::uint8_t* a, const std::uint8_t* b) { return sadInline(a, b); }
+
+void describe(const std::uint8_t* du, const std::uint8_t* dv, int width, int u, int v,
+              std::uint8_t* out) {
+  const std::ptrdiff_t centre = static_cast<std::ptrdiff_t>(v) * width + u;
+  for (int k = 0; k < 16; ++k) {
+    const std::ptrdiff_t i =
+        centre + static_cast<std::ptrdiff_t>(kPatternDv[k]) * width + kPatternDu[k];
+    out[2 * k] = du[i];
+    out[2 * k + 1] = dv[i];
+  }
+}
+
+void ssdAround(const std::uint8_t* du, const std::uint8_t* dv, int width, int u, int v,
+               const std::uint8_t* ref, std::uint32_t* out) {
+#if defined(__SSE4_1__)
+  // Per sample and row: the du / dv bytes of the three columns interleaved and widened to int16,
+  // minus the reference pair, squared and pair-summed by madd: lane j holds column j - 1.
+  __m128i acc[3] = {_mm_setzero_si128(), _mm_setzero_si128(), _mm_setzero_si128()};
+  for (int k = 0; k < 16; ++k) {
+    const __m128i r = _mm_set1_epi32(ref[2 * k] | (ref[2 * k + 1] << 16));
+    const std::ptrdiff_t top =
+        static_cast<std::ptrdiff_t>(v + kPatternDv[k] - 1) * width + u + kPatternDu[k] - 1;
+    for (int row = 0; row < 3; ++row) {
+      const std::ptrdiff_t i = top + static_cast<std::ptrdiff_t>(row) * width;
+      std::int32_t a, b;
+      std::memcpy(&a, du + i, 4);
+      std::memcpy(&b, dv + i, 4);
+      const __m128i x =
+          _mm_cvtepu8_epi16(_mm_unpacklo_epi8(_mm_cvtsi32_si128(a), _mm_cvtsi32_si128(b)));
+      const __m128i d = _mm_sub_epi16(x, r);
+      acc[row] = _mm_add_epi32(acc[row], _mm_madd_epi16(d, d));
+    }
+  }
+  for (int row = 0; row < 3; ++row) {
+    alignas(16) std::uint32_t lanes[4];
+    _mm_store_si128(reinterpret_cast<__m128i*>(lanes), acc[row]);
+    out[3 * row] = lanes[0];
+    out[3 * row + 1] = lanes[1];
+    out[3 * row + 2] = lanes[2];
+  }
+#else
+  std::uint8_t d[kDescriptorBytes];
+  for (int row = 0; row < 3; ++row) {
+    for (int col = 0; col < 3; ++col) {
+      describe(du, dv, width, u + col - 1, v + row - 1, d);
+      out[3 * row + col] = ssd32(ref, d);
+    }
+  }
+#endif
+}
 
 std::uint32_t ssd32(const std::uint8_t* a, const std::uint8_t* b) {
   // |a - b| as bytes, widened to 16 bit, squared and pairwise summed by madd.
@@ -304,8 +409,7 @@ void searchBest(const std::uint8_t* query, const std::uint8_t* descs, const std:
   int index = *best_index;
   std::uint32_t cost = *best_cost;
   std::uint32_t second = *second_cost;
-  for (int i = begin; i < end; ++i) {
-    if (us[i] < u0 || us[i] > u1 || vs[i] < v0 || vs[i] > v1) continue;
+  const auto consider = [&](int i) {
     const std::uint32_t c =
         sadInline(query, descs + static_cast<std::ptrdiff_t>(i) * kDescriptorBytes);
     if (c < cost) {
@@ -315,7 +419,57 @@ void searchBest(const std::uint8_t* query, const std::uint8_t* descs, const std:
     } else if (c < second) {
       second = c;
     }
+  };
+#if defined(__AVX512BW__)
+  // Window test of 32 candidates at once. Few inside: the SAD of each in index order; many: the
+  // SADs of 16 at once and their minimum (same result: lowest cost, lowest index on ties).
+  const __m512i lo_u = _mm512_set1_epi16(static_cast<std::int16_t>(u0));
+  const __m512i hi_u = _mm512_set1_epi16(static_cast<std::int16_t>(u1));
+  const __m512i lo_v = _mm512_set1_epi16(static_cast<std::int16_t>(v0));
+  const __m512i hi_v = _mm512_set1_epi16(static_cast<std::int16_t>(v1));
+  const __m512i query2 =
+      _mm512_broadcast_i64x4(_mm256_loadu_si256(reinterpret_cast<const __m256i*>(query)));
+  for (int i = begin; i < end; i += 32) {
+    const int n = std::min(32, end - i);
+    const __mmask32 tail = n == 32 ? ~__mmask32{0} : (__mmask32{1} << n) - 1;
+    const __m512i u = _mm512_maskz_loadu_epi16(tail, us + i);
+    const __m512i v = _mm512_maskz_loadu_epi16(tail, vs + i);
+    const std::uint32_t inside =
+        _mm512_mask_cmpge_epi16_mask(tail, u, lo_u) & _mm512_cmple_epi16_mask(u, hi_u) &
+        _mm512_cmpge_epi16_mask(v, lo_v) & _mm512_cmple_epi16_mask(v, hi_v);
+    for (int half = 0; half < 2; ++half) {
+      const int first = i + 16 * half;
+      std::uint32_t bits = (inside >> (16 * half)) & 0xffffu;
+      if (bits == 0) continue;
+      if (first + 16 > end || __builtin_popcount(bits) < kMinVectorSad) {
+        while (bits) {
+          consider(first + __builtin_ctz(bits));
+          bits &= bits - 1;
+        }
+        continue;
+      }
+      const __m512i costs = _mm512_mask_blend_epi32(
+          static_cast<__mmask16>(bits), _mm512_set1_epi32(-1),
+          sad16(query2, descs + static_cast<std::ptrdiff_t>(first) * kDescriptorBytes));
+      const std::uint32_t m = _mm512_reduce_min_epu32(costs);
+      const int lane = __builtin_ctz(_mm512_cmpeq_epi32_mask(costs, _mm512_set1_epi32(m)));
+      if (m < cost) {
+        const std::uint32_t others = _mm512_reduce_min_epu32(_mm512_mask_blend_epi32(
+            static_cast<__mmask16>(1u << lane), costs, _mm512_set1_epi32(-1)));
+        second = std::min(cost, others);
+        cost = m;
+        index = first + lane;
+      } else if (m < second) {
+        second = m;
+      }
+    }
   }
+#else
+  for (int i = begin; i < end; ++i) {
+    if (us[i] < u0 || us[i] > u1 || vs[i] < v0 || vs[i] > v1) continue;
+    consider(i);
+  }
+#endif
   *best_index = index;
   *best_cost = cost;
   *second_cost = second;

@@ -68,6 +68,28 @@ void sparseSubset(const FeatureFrame& in, FeatureFrame* out, std::vector<int>* i
 
 }  // namespace
 
+void Matcher::mergeNeighbours(int bins_u, int bins_v, std::vector<FlowRange>* ranges) {
+  merged_ = *ranges;
+  for (int row = 0; row < bins_v; ++row) {
+    for (int col = 0; col < bins_u; ++col) {
+      FlowRange r{std::numeric_limits<float>::max(), std::numeric_limits<float>::lowest(),
+                  std::numeric_limits<float>::max(), std::numeric_limits<float>::lowest(), 0};
+      for (int rr = std::max(0, row - 1); rr <= std::min(bins_v - 1, row + 1); ++rr) {
+        for (int cc = std::max(0, col - 1); cc <= std::min(bins_u - 1, col + 1); ++cc) {
+          const FlowRange& b = merged_[rr * bins_u + cc];
+          if (b.count == 0) continue;
+          r.u_min = std::min(r.u_min, b.u_min);
+          r.u_max = std::max(r.u_max, b.u_max);
+          r.v_min = std::min(r.v_min, b.v_min);
+          r.v_max = std::max(r.v_max, b.v_max);
+          r.count += b.count;
+        }
+      }
+      (*ranges)[row * bins_u + col] = r;
+    }
+  }
+}
+
 std::optional<SubpixelMode> parseSubpixelMode(const std::string& name) {
   if (name == "none") return SubpixelMode::kNone;
   if (name == "cost") return SubpixelMode::kCost;
@@ -90,19 +112,7 @@ Matcher::Window Matcher::window(const FeatureFrame& from, int index, const Featu
     const Feature& f = from.features[index];
     int row = 0;
     const int col = from.binOf(f.u, f.v, &row);
-    FlowRange r{std::numeric_limits<float>::max(), std::numeric_limits<float>::lowest(),
-                std::numeric_limits<float>::max(), std::numeric_limits<float>::lowest(), 0};
-    for (int rr = std::max(0, row - 1); rr <= std::min(from.bins_v - 1, row + 1); ++rr) {
-      for (int cc = std::max(0, col - 1); cc <= std::min(from.bins_u - 1, col + 1); ++cc) {
-        const FlowRange& b = (*prior)[rr * from.bins_u + cc];
-        if (b.count == 0) continue;
-        r.u_min = std::min(r.u_min, b.u_min);
-        r.u_max = std::max(r.u_max, b.u_max);
-        r.v_min = std::min(r.v_min, b.v_min);
-        r.v_max = std::max(r.v_max, b.v_max);
-        r.count += b.count;
-      }
-    }
+    const FlowRange& r = (*prior)[row * from.bins_u + col];
     if (r.count > 0) {
       const double m = options_.flow_margin_px / static_cast<double>(to.scale);
       u_lo = std::max(u_lo, c.x() + r.u_min - m);
@@ -144,29 +154,43 @@ std::optional<Vec2> Matcher::refineCost(const FeatureFrame& prev, int p, const F
                                         int q) const {
   const Feature& f = cur.features[q];
   const std::uint8_t* ref = prev.descriptor(p);
-  std::uint8_t d[kernels::kDescriptorBytes];
+  const FilterImages& filters = cur.filters;
   // Positions whose descriptor lies inside the filtered area.
   const int lo = kernels::kDescriptorRadius + kernels::kFilterBorder;
-  const int u_hi = cur.filters.width - 1 - lo, v_hi = cur.filters.height - 1 - lo;
-  const auto ssdAt = [&](int u, int v) {
-    if (u < lo || v < lo || u > u_hi || v > v_hi) return std::numeric_limits<double>::max();
-    computeDescriptor(cur.filters, u, v, d);
-    return static_cast<double>(kernels::ssd32(ref, d));
+  const int u_hi = filters.width - 1 - lo, v_hi = filters.height - 1 - lo;
+  // SSD of the 3x3 neighbourhood, [dv + 1][du + 1]; positions outside the area cost "infinity".
+  double around[3][3];
+  const auto ssdAround = [&](int u, int v) {
+    if (u > lo && v > lo && u < u_hi && v < v_hi) {
+      std::uint32_t ssd[9];
+      kernels::ssdAround(filters.du.data(), filters.dv.data(), filters.width, u, v, ref, ssd);
+      for (int k = 0; k < 9; ++k) around[k / 3][k % 3] = static_cast<double>(ssd[k]);
+      return;
+    }
+    std::uint8_t d[kernels::kDescriptorBytes];
+    for (int dv = -1; dv <= 1; ++dv) {
+      for (int du = -1; du <= 1; ++du) {
+        double& x = around[dv + 1][du + 1];
+        x = std::numeric_limits<double>::max();
+        if (u + du < lo || v + dv < lo || u + du > u_hi || v + dv > v_hi) continue;
+        computeDescriptor(filters, u + du, v + dv, d);
+        x = static_cast<double>(kernels::ssd32(ref, d));
+      }
+    }
   };
   // Descend on the SSD over the 8-neighbourhood from the matched feature: a feature detected a
   // little off the true position (typical along edges) moves to the cost minimum.
   int u = f.u, v = f.v;
-  double c = ssdAt(u, v);
+  ssdAround(u, v);
+  double c = around[1][1];
   double rise_min = 0.0, rise_max = 0.0;  // SSD increase to the cheapest / dearest neighbour
-  double around[3][3];                    // SSD of the 3x3 neighbourhood, [dv + 1][du + 1]
   for (int step = 0;; ++step) {
     int best_du = 0, best_dv = 0;
     double best = c, worst = c, second = std::numeric_limits<double>::max();
     for (int dv = -1; dv <= 1; ++dv) {
       for (int du = -1; du <= 1; ++du) {
         if (du == 0 && dv == 0) continue;
-        const double x = ssdAt(u + du, v + dv);
-        around[dv + 1][du + 1] = x;
+        const double x = around[dv + 1][du + 1];
         second = std::min(second, x);
         worst = std::max(worst, x);
         if (x < best) best = x, best_du = du, best_dv = dv;
@@ -178,7 +202,8 @@ std::optional<Vec2> Matcher::refineCost(const FeatureFrame& prev, int p, const F
     if (step == options_.max_refine_steps) return std::nullopt;
     u += best_du;
     v += best_dv;
-    c = best;
+    ssdAround(u, v);
+    c = around[1][1];
   }
   // Response mode reports the feature's own position: it must be the cost minimum.
   if (options_.subpixel == SubpixelMode::kResponse && (u != f.u || v != f.v)) return std::nullopt;
@@ -229,7 +254,8 @@ std::vector<Match> Matcher::match(const FeatureFrame& prev, const FeatureFrame& 
   if (use_prior) {
     sparseSubset(prev, &prev_sparse_, &prev_sparse_index_);
     sparseSubset(cur, &cur_sparse_, &cur_sparse_index_);
-    std::vector<std::pair<int, int>> sparse;
+    std::vector<std::pair<int, int>>& sparse = sparse_pairs_;
+    sparse.clear();
     for (const int q : cur_sparse_index_) {
       std::uint32_t cost = 0;
       const int p_sub = search(cur, q, prev_sparse_,
@@ -240,15 +266,16 @@ std::vector<Match> Matcher::match(const FeatureFrame& prev, const FeatureFrame& 
                                 window(prev, p, cur, pred_cur_of_prev, prev_valid, nullptr), &cost);
       if (q2_sub >= 0 && cur_sparse_index_[q2_sub] == q) sparse.emplace_back(p, q);
     }
-    std::vector<Vec2> px(sparse.size()), flow(sparse.size());
+    px_.resize(sparse.size());
+    flow_.resize(sparse.size());
     for (std::size_t k = 0; k < sparse.size(); ++k) {
-      px[k] = cur.pixel(sparse[k].second);
-      flow[k] = px[k] - prev.pixel(sparse[k].first);
+      px_[k] = cur.pixel(sparse[k].second);
+      flow_[k] = px_[k] - prev.pixel(sparse[k].first);
     }
-    std::vector<std::uint8_t> keep(sparse.size(), 1);
+    sparse_keep_.assign(sparse.size(), 1);
     if (options_.delaunay_filter) {
-      keep = delaunaySupportFilter(px, flow, options_.delaunay_flow_tol_px,
-                                   options_.delaunay_min_support);
+      delaunaySupportFilter(px_, flow_, options_.delaunay_flow_tol_px,
+                            options_.delaunay_min_support, &sparse_keep_);
     }
     const FlowRange empty{0.f, 0.f, 0.f, 0.f, 0};
     prior_from_cur_.assign(static_cast<std::size_t>(cur.bins_u) * cur.bins_v, empty);
@@ -266,7 +293,7 @@ std::vector<Match> Matcher::match(const FeatureFrame& prev, const FeatureFrame& 
       ++r.count;
     };
     for (std::size_t k = 0; k < sparse.size(); ++k) {
-      if (!keep[k]) continue;
+      if (!sparse_keep_[k]) continue;
       ++local_stats.sparse_matches;
       const auto [p, q] = sparse[k];
       const Feature& fp = prev.features[p];
@@ -282,6 +309,8 @@ std::vector<Match> Matcher::match(const FeatureFrame& prev, const FeatureFrame& 
           Vec2(fq.u, fq.v) -
               predictedCentre(prev, p, cur, pred_cur_of_prev, prev_valid, &predicted));
     }
+    mergeNeighbours(cur.bins_u, cur.bins_v, &prior_from_cur_);
+    mergeNeighbours(prev.bins_u, prev.bins_v, &prior_from_prev_);
   }
 
   const double t1 = threadCpuMs();
@@ -289,6 +318,7 @@ std::vector<Match> Matcher::match(const FeatureFrame& prev, const FeatureFrame& 
   selectQueries(prev, prev_priority);
   local_stats.queries = static_cast<int>(queries_.size());
   std::vector<Match> matches;
+  matches.reserve(std::min(queries_.size(), static_cast<std::size_t>(cur.size())));
   reverse_.assign(cur.size(), -2);
   for (const int p : queries_) {
     std::uint32_t cost = 0;
@@ -336,16 +366,17 @@ std::vector<Match> Matcher::match(const FeatureFrame& prev, const FeatureFrame& 
   const double t3 = threadCpuMs();
 
   if (options_.delaunay_filter && !matches.empty()) {
-    std::vector<Vec2> px(matches.size()), flow(matches.size());
+    px_.resize(matches.size());
+    flow_.resize(matches.size());
     for (std::size_t k = 0; k < matches.size(); ++k) {
-      px[k] = matches[k].px_cur;
-      flow[k] = matches[k].px_cur - matches[k].px_prev;
+      px_[k] = matches[k].px_cur;
+      flow_[k] = matches[k].px_cur - matches[k].px_prev;
     }
-    const auto keep = delaunaySupportFilter(px, flow, options_.delaunay_flow_tol_px,
-                                            options_.delaunay_min_support);
+    delaunaySupportFilter(px_, flow_, options_.delaunay_flow_tol_px, options_.delaunay_min_support,
+                          &dense_keep_);
     std::size_t kept = 0;
     for (std::size_t k = 0; k < matches.size(); ++k) {
-      if (keep[k]) matches[kept++] = matches[k];
+      if (dense_keep_[k]) matches[kept++] = matches[k];
     }
     local_stats.delaunay_removed = static_cast<int>(matches.size() - kept);
     matches.resize(kept);
@@ -368,27 +399,61 @@ std::vector<std::uint8_t> bucketMatches(const std::vector<Match>& matches,
     std::fill(keep.begin(), keep.end(), 1);
     return keep;
   }
-  std::vector<std::int64_t> bucket(n);
+  if (n == 0) return keep;
+  // Bucket (row, column) of every match, relative to the lowest ones present.
+  std::vector<std::int64_t> bu(n), bv(n);
+  std::int64_t bu_min = std::numeric_limits<std::int64_t>::max(), bv_min = bu_min;
+  std::int64_t bu_max = std::numeric_limits<std::int64_t>::lowest(), bv_max = bu_max;
   for (int i = 0; i < n; ++i) {
-    const auto bu = static_cast<std::int64_t>(std::floor(matches[i].px_cur.x() / bucket_px));
-    const auto bv = static_cast<std::int64_t>(std::floor(matches[i].px_cur.y() / bucket_px));
-    bucket[i] = (bv << 32) + bu;
+    bu[i] = static_cast<std::int64_t>(std::floor(matches[i].px_cur.x() / bucket_px));
+    bv[i] = static_cast<std::int64_t>(std::floor(matches[i].px_cur.y() / bucket_px));
+    bu_min = std::min(bu_min, bu[i]);
+    bu_max = std::max(bu_max, bu[i]);
+    bv_min = std::min(bv_min, bv[i]);
+    bv_max = std::max(bv_max, bv[i]);
   }
-  std::vector<int> order(n);
-  std::iota(order.begin(), order.end(), 0);
   const auto prio = [&](int i) { return priority.empty() ? 0 : priority[i]; };
-  std::sort(order.begin(), order.end(), [&](int a, int b) {
-    if (bucket[a] != bucket[b]) return bucket[a] < bucket[b];
+  // Higher priority, then lower cost, then lower index.
+  const auto before = [&](int a, int b) {
     if (prio(a) != prio(b)) return prio(a) > prio(b);
     if (matches[a].cost != matches[b].cost) return matches[a].cost < matches[b].cost;
     return a < b;
-  });
-  int taken = 0;
-  for (int k = 0; k < n; ++k) {
-    if (k > 0 && bucket[order[k]] != bucket[order[k - 1]]) taken = 0;
-    if (taken < max_per_bucket) {
-      keep[order[k]] = 1;
-      ++taken;
+  };
+  const std::int64_t cols = bu_max - bu_min + 1, rows = bv_max - bv_min + 1;
+  if (cols * rows > 4 * static_cast<std::int64_t>(n) + 1024) {
+    // Sparse buckets (e.g. far-apart pixels): sort by bucket.
+    std::vector<int> order(n);
+    std::iota(order.begin(), order.end(), 0);
+    std::sort(order.begin(), order.end(), [&](int a, int b) {
+      if (bv[a] != bv[b]) return bv[a] < bv[b];
+      if (bu[a] != bu[b]) return bu[a] < bu[b];
+      return before(a, b);
+    });
+    int taken = 0;
+    for (int k = 0; k < n; ++k) {
+      const int i = order[k];
+      if (k > 0 && (bu[i] != bu[order[k - 1]] || bv[i] != bv[order[k - 1]])) taken = 0;
+      if (taken < max_per_bucket) {
+        keep[i] = 1;
+        ++taken;
+      }
+    }
+    return keep;
+  }
+  // Counting sort by bucket, then the max_per_bucket first of each bucket's matches.
+  std::vector<int> begin(static_cast<std::size_t>(cols * rows) + 1, 0), order(n);
+  const auto bucketOf = [&](int i) { return (bv[i] - bv_min) * cols + (bu[i] - bu_min); };
+  for (int i = 0; i < n; ++i) ++begin[bucketOf(i) + 1];
+  for (std::size_t b = 1; b < begin.size(); ++b) begin[b] += begin[b - 1];
+  std::vector<int> next(begin.begin(), begin.end() - 1);
+  for (int i = 0; i < n; ++i) order[next[bucketOf(i)]++] = i;
+  for (std::size_t b = 0; b + 1 < begin.size(); ++b) {
+    const auto first = order.begin() + begin[b], last = order.begin() + begin[b + 1];
+    if (last - first > max_per_bucket) {
+      std::nth_element(first, first + max_per_bucket - 1, last, before);
+      for (auto it = first; it != first + max_per_bucket; ++it) keep[*it] = 1;
+    } else {
+      for (auto it = first; it != last; ++it) keep[*it] = 1;
     }
   }
   return keep;

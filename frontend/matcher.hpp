@@ -105,8 +105,13 @@ class Matcher {
   std::optional<Vec2> refineCost(const FeatureFrame& prev, int p, const FeatureFrame& cur,
                                  int q) const;
 
+  // Replaces every bin's range by the union over its 3x3 bin neighbourhood.
+  void mergeNeighbours(int bins_u, int bins_v, std::vector<FlowRange>* ranges);
+
   MatcherOptions options_;
-  std::vector<FlowRange> prior_from_cur_, prior_from_prev_;  // per bin of the query's image
+  // Per bin of the query's image: the sparse flow range over the bin's 3x3 neighbourhood.
+  std::vector<FlowRange> prior_from_cur_, prior_from_prev_;
+  std::vector<FlowRange> merged_;  // scratch of mergeNeighbours
   void selectQueries(const FeatureFrame& prev, const std::vector<int>* priority);
 
   std::vector<int> reverse_;               // memo of cur -> prev searches
@@ -114,6 +119,9 @@ class Matcher {
   std::vector<int> group_;                 // scratch of selectQueries
   FeatureFrame prev_sparse_, cur_sparse_;  // sparse features only
   std::vector<int> prev_sparse_index_, cur_sparse_index_;
+  std::vector<std::pair<int, int>> sparse_pairs_;  // circle-checked sparse (prev, cur)
+  std::vector<Vec2> px_, flow_;                    // Delaunay filter input
+  std::vector<std::uint8_t> sparse_keep_, dense_keep_;
 };
 
 /// Keeps at most `max_per_bucket` matches per bucket_px x bucket_px cell of the current image:

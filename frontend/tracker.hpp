@@ -38,7 +38,8 @@ struct FeatureObservation {
 };
 
 struct TrackerOptions {
-  int max_history = 0;  // observations kept per track (0 = all)
+  int max_history = 0;  // observations kept per track (0 = all; the vo chain looks back to its
+                        // reference frame, which may be many frames old)
 };
 
 /// Owns the tracks. Call update() once per frame with the current features and, for each, the

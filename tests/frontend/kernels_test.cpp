@@ -1,0 +1,101 @@
+// The SIMD kernels against their plain definitions: the windowed best-SAD search and the 3x3 SSD
+// block of the sub-pixel refinement.
+#include "frontend/kernels.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cstdint>
+#include <limits>
+#include <random>
+#include <vector>
+
+#include "frontend/features.hpp"
+
+namespace ovo::frontend {
+namespace {
+
+struct Best {
+  int index = -1;
+  std::uint32_t cost = std::numeric_limits<std::uint32_t>::max();
+  std::uint32_t second = std::numeric_limits<std::uint32_t>::max();
+};
+
+// The definition: lowest SAD, lowest index on ties; second = lowest cost of the others.
+Best bruteForce(const std::uint8_t* query, const std::vector<std::uint8_t>& descs,
+                const std::vector<std::int16_t>& us, const std::vector<std::int16_t>& vs, int begin,
+                int end, int u0, int u1, int v0, int v1) {
+  Best b;
+  std::vector<std::uint32_t> costs;
+  for (int i = begin; i < end; ++i) {
+    if (us[i] < u0 || us[i] > u1 || vs[i] < v0 || vs[i] > v1) continue;
+    std::uint32_t c = 0;
+    for (int k = 0; k < 32; ++k) c += std::abs(int(query[k]) - int(descs[32 * i + k]));
+    if (c < b.cost) b.cost = c, b.index = i;
+    costs.push_back(c);
+  }
+  bool skipped = false;
+  for (const std::uint32_t c : costs) {
+    if (c == b.cost && !skipped) {
+      skipped = true;
+      continue;
+    }
+    b.second = std::min(b.second, c);
+  }
+  return b;
+}
+
+TEST(Kernels, SearchBestEqualsTheBruteForceDefinition) {
+  std::mt19937 rng(11);
+  // Few distinct byte values make cost ties common, so the tie rule is exercised.
+  std::uniform_int_distribution<int> byte(100, 104), coord(0, 99), len(0, 90);
+  const int n = 400;
+  std::vector<std::uint8_t> descs(32 * n);
+  std::vector<std::int16_t> us(n), vs(n);
+  for (auto& d : descs) d = static_cast<std::uint8_t>(byte(rng));
+  for (int i = 0; i < n; ++i) us[i] = coord(rng), vs[i] = coord(rng);
+  for (int trial = 0; trial < 2000; ++trial) {
+    std::uint8_t query[32];
+    for (auto& q : query) q = static_cast<std::uint8_t>(byte(rng));
+    const int begin = coord(rng) * 3, end = std::min(n, begin + len(rng) * 2);
+    // Windows from a few pixels (few candidates inside) to everything (all inside).
+    const int half = trial % 3 == 0 ? 100 : 3 + trial % 40;
+    const int cu = coord(rng), cv = coord(rng);
+    const Best want =
+        bruteForce(query, descs, us, vs, begin, end, cu - half, cu + half, cv - half, cv + half);
+    Best got;
+    kernels::searchBest(query, descs.data(), us.data(), vs.data(), begin, end, cu - half, cu + half,
+                        cv - half, cv + half, &got.index, &got.cost, &got.second);
+    ASSERT_EQ(got.index, want.index) << trial;
+    ASSERT_EQ(got.cost, want.cost) << trial;
+    ASSERT_EQ(got.second, want.second) << trial;
+  }
+}
+
+TEST(Kernels, SsdAroundEqualsTheSsdOfEachNeighbourDescriptor) {
+  std::mt19937 rng(5);
+  std::uniform_int_distribution<int> byte(0, 255);
+  FilterImages f;
+  f.width = 40;
+  f.height = 30;
+  f.du.resize(f.width * f.height);
+  f.dv.resize(f.width * f.height);
+  for (auto& x : f.du) x = static_cast<std::uint8_t>(byte(rng));
+  for (auto& x : f.dv) x = static_cast<std::uint8_t>(byte(rng));
+  std::uint8_t ref[32];
+  for (auto& r : ref) r = static_cast<std::uint8_t>(byte(rng));
+  const int lo = kernels::kDescriptorRadius + 1;
+  for (int v = lo; v < f.height - lo; ++v) {
+    for (int u = lo; u < f.width - lo; ++u) {
+      std::uint32_t block[9];
+      kernels::ssdAround(f.du.data(), f.dv.data(), f.width, u, v, ref, block);
+      for (int k = 0; k < 9; ++k) {
+        std::uint8_t d[32];
+        computeDescriptor(f, u + k % 3 - 1, v + k / 3 - 1, d);
+        ASSERT_EQ(block[k], kernels::ssd32(ref, d)) << u << "," << v << " " << k;
+      }
+    }
+  }
+}
+
+}  // namespace
+}  // namespace ovo::frontend
