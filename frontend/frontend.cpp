@@ -3,6 +3,7 @@
 #include <cmath>
 
 #include "common/error.hpp"
+#include "frontend/essential.hpp"
 #include "frontend/mask.hpp"
 #include "frontend/timing.hpp"
 
@@ -48,6 +49,8 @@ FrontendOptions readFrontendOptions(const Config& cfg) {
   o.use_rotation_prior = cfg.get<bool>("frontend.use_rotation_prior", o.use_rotation_prior);
   o.break_tracks_on_outliers =
       cfg.get<bool>("frontend.break_tracks_on_outliers", o.break_tracks_on_outliers);
+  o.track_epipolar_gate_rad =
+      cfg.getInRange("frontend.track_epipolar_gate_rad", o.track_epipolar_gate_rad, 0.0, 1.0);
   return o;
 }
 
@@ -185,6 +188,21 @@ FrontendResult Frontend::process(Timestamp t_ns, const cv::Mat& grey,
         result.relative_pose->inliers.size() == used_matches.size()) {
       for (std::size_t i = 0; i < used_matches.size(); ++i) {
         if (!result.relative_pose->inliers[i]) prev_index[matches[used_matches[i]].cur] = -1;
+      }
+    }
+    // A track must not continue through a match that the frame's motion explains poorly: a
+    // mismatch, or a jump to a neighbouring feature, would otherwise offset every later
+    // observation of the track (the estimators' landmarks see the whole history).
+    const double gate = options_.track_epipolar_gate_rad;
+    if (options_.break_tracks_on_outliers && gate > 0.0 &&
+        status == RelativePoseResult::Status::kOk) {
+      const Mat3 E =
+          essentialFromMotion(result.relative_pose->R_cur_prev, result.relative_pose->t_cur_prev);
+      for (const Match& m : matches) {
+        const int j = m.cur;
+        if (prev_index[j] >= 0 &&
+            !(sphereError(E, prev_bearing_[m.prev], bearings[j]) <= gate * gate))
+          prev_index[j] = -1;
       }
     }
   }

@@ -33,6 +33,10 @@ struct FrontendOptions {
   int bucket_max_matches = 4;            // matches per cell passed to RANSAC (0 = all)
   bool use_rotation_prior = true;        // use R_cur_prev priors given to process()
   bool break_tracks_on_outliers = true;  // a RANSAC outlier does not continue its track
+  // ... nor does any match (bucketed or not) further than this from the frame's epipolar geometry
+  // (angle on the sphere, rad; 0 = off). 1e-3 halves the tracks that jump to a neighbouring
+  // feature, but the window estimator did better with the longer tracks: off by default.
+  double track_epipolar_gate_rad = 0.0;
 };
 /// Reads the keys under "frontend." (names in the field comments above) and "ransac.".
 FrontendOptions readFrontendOptions(const Config& cfg);
