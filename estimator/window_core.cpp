@@ -769,7 +769,17 @@ bool WindowCore::tryInitialize(const VisualFrame& frame, const SE3& T_W_B_pred,
   if (!tv) return false;
 
   // Metric scale: LiDAR ranges against the unit-baseline points, else the ground plane.
+  // Putting off is only safe while the shared tracks are plentiful: once they run out the
+  // reference restarts at the current frame and the motion since the old one is lost.
+  const bool can_defer = scale_deferrals_ < kMaxScaleDeferrals &&
+                         static_cast<int>(ids.size()) >= 4 * options_.init_min_tracks;
   std::optional<double> scale;
+  std::optional<double> ground_scale;
+  if (setup_.camera_height_m) {
+    const Vec3 up_C0 = R_B_C.transpose() * Vec3::UnitZ();
+    if (auto plane = fitGroundPlane(tv->p_C0, up_C0, ground_options_))
+      if (plane->height > 1e-9) ground_scale = *setup_.camera_height_m / plane->height;
+  }
   lidar_scale_ = false;
   if (use_lidar_) {
     const SE3 T_C_L = setup_.T_B_C.inverse() * setup_.T_B_L;
@@ -809,20 +819,55 @@ bool WindowCore::tryInitialize(const VisualFrame& frame, const SE3& T_W_B_pred,
     }
     // A second group almost as large (beams through a canopy gap onto the next row give a
     // consistent wrong ratio) makes the vote a coin toss: put the initialisation off to a later
-    // frame (more parallax, another scan), and after kMaxDeferrals use the ground plane.
+    // frame (more parallax, another scan) unless the ground plane settles it.
     std::size_t second_n = 0;
     for (std::size_t i = 0; i < ratios.size(); ++i)
       if (group_end[i] <= best_lo || i >= best_lo + best_n)
         second_n = std::max(second_n, group_end[i] - i);
-    constexpr int kMaxDeferrals = 20;
-    const bool ambiguous = best_n > 0 && 2 * second_n >= best_n;
-    if (ambiguous && ambiguous_scale_deferrals_ < kMaxDeferrals) {
-      ++ambiguous_scale_deferrals_;
+    bool ambiguous = best_n > 0 && 2 * second_n >= best_n;
+    // The ground plane settles a tie: the largest group that agrees with it within 20 %.
+    if (ambiguous && ground_scale) {
+      std::size_t pick_lo = 0, pick_n = 0;
+      for (std::size_t i = 0; i < ratios.size(); ++i) {
+        const std::size_t n = group_end[i] - i;
+        const double median_ratio = ratios[i + n / 2];
+        if (2 * n >= best_n && n > pick_n && median_ratio <= 1.2 * *ground_scale &&
+            *ground_scale <= 1.2 * median_ratio) {
+          pick_n = n;
+          pick_lo = i;
+        }
+      }
+      if (pick_n > 0) {
+        best_lo = pick_lo;
+        best_n = pick_n;
+        ambiguous = false;
+        note(
+            "LiDAR scale ambiguous at an initialisation: the group that the ground plane agrees "
+            "with");
+      }
+    }
+    if (ambiguous && can_defer) {
+      ++scale_deferrals_;
       note("LiDAR scale ambiguous at an initialisation (two groups of range ratios): put off");
       return false;
     }
     if (ambiguous) {
-      note("LiDAR scale stayed ambiguous at an initialisation: ground-plane scale there");
+      // No more waiting: the group nearest the ground plane's scale, else the nearest surfaces
+      // (the smallest ratio; a beam through a canopy gap only ever reads too far).
+      std::size_t pick = ratios.size();
+      double pick_dist = std::numeric_limits<double>::infinity();
+      for (std::size_t i = 0; i < ratios.size(); ++i) {
+        const std::size_t n = group_end[i] - i;
+        if (2 * n < best_n) continue;
+        const double d = ground_scale ? std::abs(std::log(ratios[i + n / 2] / *ground_scale)) : 0.0;
+        if (d < pick_dist) pick_dist = d, pick = i;
+        if (!ground_scale) break;
+      }
+      scale = ratios[pick + (group_end[pick] - pick) / 2];
+      lidar_scale_ = true;
+      note(
+          "LiDAR scale stayed ambiguous at an initialisation: the group nearest the ground "
+          "plane, else the nearest surfaces");
     } else if (static_cast<int>(best_n) >= options_.lidar_min_associations / 2 &&
                static_cast<int>(ratios.size()) >= options_.lidar_min_associations &&
                best_n >= ratios.size() / 3) {
@@ -831,13 +876,17 @@ bool WindowCore::tryInitialize(const VisualFrame& frame, const SE3& T_W_B_pred,
     } else {
       note("LiDAR associated too few points at an initialisation: ground-plane scale there");
     }
-    ambiguous_scale_deferrals_ = 0;
   }
-  if (!scale && setup_.camera_height_m) {
-    const Vec3 up_C0 = R_B_C.transpose() * Vec3::UnitZ();
-    if (auto plane = fitGroundPlane(tv->p_C0, up_C0, ground_options_))
-      if (plane->height > 1e-9) scale = *setup_.camera_height_m / plane->height;
+  if (!scale) scale = ground_scale;
+  // A window started at a wrong scale keeps it: the LiDAR and ground gates then reject every
+  // measurement that would correct it. With a scale sensor, wait for a frame that gives a scale.
+  const bool can_scale = use_lidar_ || setup_.camera_height_m.has_value();
+  if (!scale && can_scale && can_defer) {
+    ++scale_deferrals_;
+    note("no LiDAR or ground-plane scale at an initialisation: put off");
+    return false;
   }
+  scale_deferrals_ = 0;
   if (!scale) {
     scale = 1.0;
     note("initialisation without LiDAR or ground-plane scale: unit baseline");

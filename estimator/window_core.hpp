@@ -116,8 +116,11 @@ class WindowCore {
   bool initialized_ = false;
   int next_kf_id_ = 0;
   int segment_ = 0;
-  bool lidar_scale_ = false;           // the current segment's scale came from the LiDAR
-  int ambiguous_scale_deferrals_ = 0;  // initialisations put off for an ambiguous LiDAR scale
+  bool lidar_scale_ = false;  // the current segment's scale came from the LiDAR
+  // Initialisations put off in a row for an ambiguous or missing scale; at the limit the ground
+  // plane (then a unit baseline) is used.
+  static constexpr int kMaxScaleDeferrals = 20;
+  int scale_deferrals_ = 0;
 
   // Last frame.
   bool have_last_ = false;
