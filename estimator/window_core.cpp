@@ -713,6 +713,7 @@ void WindowCore::marginalize() {
 }
 
 void WindowCore::resetWindow() {
+  if (!map_.empty()) carried_bias_ = {map_.keyframes.back()->t_ns, map_.keyframes.back()->bias()};
   map_.rememberPoints(setup_.T_B_C);
   for (auto& kf : map_.keyframes) {
     kf_poses_[kf->id] = kf->pose();
@@ -923,7 +924,16 @@ bool WindowCore::tryInitialize(const VisualFrame& frame, const SE3& T_W_B_pred,
                   setup_.gyro_bias_random_walk * setup_.gyro_bias_random_walk * still_time_s_);
     note("standstill before initialisation: gyro bias from its mean rate (zero-rate update)");
     if (!still_gauge_) still_gauge_ = gauge_;
+  } else if (carried_bias_) {
+    // A new segment after a loss: the bias has only walked since the last segment's keyframe.
+    gauge_.b_g = carried_bias_->second;
+    const double dt_s = std::max(0.0, toSeconds(ref.t_ns - carried_bias_->first));
+    const double sigma = options_.reinit_bias_sigma_radps;
+    gauge_.b_g_sigma_radps = std::sqrt(sigma * sigma + setup_.gyro_bias_random_walk *
+                                                           setup_.gyro_bias_random_walk * dt_s);
+    note("re-initialised after a loss: the gyro bias carried over from the previous segment");
   }
+  carried_bias_.reset();
   still_rotation_.setZero();
   still_time_s_ = 0.0;
   associateLidar(*kf0, true);

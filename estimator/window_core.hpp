@@ -116,6 +116,9 @@ class WindowCore {
   bool initialized_ = false;
   int next_kf_id_ = 0;
   int segment_ = 0;
+  // The bias estimate when the window was reset after a loss, and the time of its keyframe: the
+  // next segment starts from it instead of the loose first-start prior.
+  std::optional<std::pair<Timestamp, Vec3>> carried_bias_;
   bool lidar_scale_ = false;  // the current segment's scale came from the LiDAR
   // Initialisations put off in a row for an ambiguous or missing scale; at the limit the ground
   // plane (then a unit baseline) is used.

@@ -41,10 +41,11 @@ struct WindowOptions {
   double lidar_huber_sigmas = 2.0;            // robust loss threshold of LiDAR factors, sigmas
   double gyro_bias_random_walk = -1.0;        // rad/s^2/sqrt(Hz); < 0: the rig's value
   double gyro_bias_prior_sigma_radps = 0.02;  // prior on the first keyframe's bias, rad/s
-  double gauge_sigma_position_m = 1e-4;       // first-keyframe pose prior before the first marg., m
-  double gauge_sigma_yaw_rad = 1e-4;          // ... and its yaw/roll/pitch sigma, rad
-  double rotation_prior_sigma_rad = 2e-3;     // per-frame motion-only refinement: gyro rotation
-                                              // prior sigma on top of the preintegration noise, rad
+  double reinit_bias_sigma_radps = 1e-3;   // ... after a loss: the previous estimate's sigma, rad/s
+  double gauge_sigma_position_m = 1e-4;    // first-keyframe pose prior before the first marg., m
+  double gauge_sigma_yaw_rad = 1e-4;       // ... and its yaw/roll/pitch sigma, rad
+  double rotation_prior_sigma_rad = 2e-3;  // per-frame motion-only refinement: gyro rotation
+                                           // prior sigma on top of the preintegration noise, rad
 
   // Camera-height factor (ground landmarks near the camera; needs the rig's camera height).
   bool use_ground_height = true;           // false: scale from the LiDAR (and initialisation) only

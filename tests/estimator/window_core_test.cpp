@@ -168,6 +168,25 @@ TEST(WindowCore, RecoversFromTrackingLossWithoutJumpingToTheOrigin) {
             0.1 * pathLength(seq));
 }
 
+TEST(WindowCore, ASegmentAfterALossStartsFromTheCarriedGyroBias) {
+  SyntheticOptions o;
+  o.duration_s = 7.0;
+  auto seq = makeSyntheticSequence(o);
+  for (std::size_t i = 60; i < 72; ++i) seq.frames[i].visual.frontend_ok = false;  // 0.6 s blind
+  const auto r = run(seq);
+  expectAllFinite(r);
+  bool carried = false;
+  for (const auto& n : r.stats.notes)
+    carried = carried || n.find("carried over") != std::string::npos;
+  EXPECT_TRUE(carried);
+  // The bias stays near the truth through the loss and the new segment's first solves.
+  double worst = 0.0;
+  for (std::size_t i = 50; i < r.estimates.size(); ++i)
+    if (r.estimates[i].tracked)
+      worst = std::max(worst, (r.estimates[i].gyro_bias - o.gyro_bias).norm());
+  EXPECT_LT(worst, 1.5e-3) << "rad/s";
+}
+
 TEST(WindowCore, MarginalizationDoesNotMoveTheWindow) {
   SyntheticOptions o;
   o.duration_s = 7.0;
