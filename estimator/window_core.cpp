@@ -161,6 +161,10 @@ std::vector<Keyframe*> WindowCore::windowKeyframes() {
 }
 
 void WindowCore::startReference(const VisualFrame& frame, const SE3& T_W_B) {
+  reference_ = makeReference(frame, T_W_B);
+}
+
+WindowCore::Reference WindowCore::makeReference(const VisualFrame& frame, const SE3& T_W_B) const {
   Reference r;
   r.t_ns = frame.t_ns;
   r.T_W_B = T_W_B;
@@ -169,7 +173,7 @@ void WindowCore::startReference(const VisualFrame& frame, const SE3& T_W_B) {
   for (const auto& o : selectSpread(frame.observations, {}, near_beams, options_))
     r.obs[o.track_id] = o;
   r.frame_index = static_cast<int>(frames_.size());
-  reference_ = std::move(r);
+  return r;
 }
 
 void WindowCore::recordFrame(const FrameEstimate& e, int ref_kf) {
@@ -281,6 +285,7 @@ FrameEstimate WindowCore::processFrame(const VisualFrame& frame_in) {
     e.status = "standstill";
     velocity_W_.setZero();
     if (initialized_ && !map_.empty()) ref_kf = map_.keyframes.back()->id;
+    if (initialized_) still_reference_ = makeReference(frame, e.T_W_B);
     if (!initialized_) {
       // Held before initialisation: the pose is known, and the two-view reference moves to
       // the last still frame so that no translation is lost when the robot starts.
@@ -304,8 +309,26 @@ FrameEstimate WindowCore::processFrame(const VisualFrame& frame_in) {
       e.T_W_B = T_pred;
       e.tracked = false;
       e.status = "initializing";
+      if (reference_) {
+        std::vector<TrackObservation> seen;
+        for (const auto& o : frame.observations)
+          if (reference_->obs.count(o.track_id)) seen.push_back(o);
+        reference_->pending.emplace_back(static_cast<int>(frames_.size()), std::move(seen));
+      }
     }
   } else {
+    // Shortly after a standstill, the frames' sightings of the still frame's tracks are kept
+    // for a restart from there.
+    if (still_reference_) {
+      if (toSeconds(frame.t_ns - still_reference_->t_ns) > kStillRestartS) {
+        still_reference_.reset();
+      } else {
+        std::vector<TrackObservation> seen;
+        for (const auto& o : frame.observations)
+          if (still_reference_->obs.count(o.track_id)) seen.push_back(o);
+        still_reference_->pending.emplace_back(static_cast<int>(frames_.size()), std::move(seen));
+      }
+    }
     // Motion-only refinement against the window's landmarks.
     std::vector<Vec3> points_W, bearings_C;
     std::vector<TrackId> ids;
@@ -361,7 +384,20 @@ FrameEstimate WindowCore::processFrame(const VisualFrame& frame_in) {
       velocity_W_ *= std::pow(options_.velocity_decay_per_s, dt);
       if (lost_frames_++ == 0) ++stats_.tracking_losses;
       ref_kf = map_.keyframes.back()->id;
-      if (lost_frames_ >= options_.reinit_after_lost_frames) {
+      const bool after_still =
+          still_reference_ && toSeconds(frame.t_ns - still_reference_->t_ns) <= kStillRestartS;
+      if (after_still) {
+        // The tracks crept while the robot stood (each still frame's sub-pixel error adds up
+        // along a track) and no longer fit the window's landmarks. The robot was still at the
+        // last still frame, so its pose is known: a new segment starts there, not at a guess.
+        note(
+            "tracks no longer fit the window after a standstill: restarted from the last still "
+            "frame");
+        resetWindow();
+        reference_ = std::move(still_reference_);
+        still_reference_.reset();
+        ref_kf = -1;
+      } else if (lost_frames_ >= options_.reinit_after_lost_frames) {
         resetWindow();
         startReference(frame, T_pred);
         ref_kf = -1;
@@ -953,6 +989,28 @@ bool WindowCore::tryInitialize(const VisualFrame& frame, const SE3& T_W_B_pred,
     r.ref_kf = kf0->id;
     r.T_kf_B = T_W_K0.inverse() * r.T_W_B;
     r.is_keyframe = i == static_cast<std::size_t>(ref.frame_index);
+  }
+  // Time is a poor guide when the robot drives off from a stop: refine those frames against the
+  // first landmarks (their gyro rotation as the prior), keeping the interpolation where that fails.
+  for (const auto& [index, seen] : ref.pending) {
+    if (index <= ref.frame_index || index >= static_cast<int>(frames_.size())) continue;
+    std::vector<Vec3> points_W, bearings_C;
+    for (const TrackObservation& o : seen) {
+      auto lm = map_.landmarks.find(o.track_id);
+      if (lm == map_.landmarks.end()) continue;
+      if (auto p = map_.pointW(lm->second, setup_.T_B_C)) {
+        points_W.push_back(*p);
+        bearings_C.push_back(o.bearing_C);
+      }
+    }
+    if (static_cast<int>(points_W.size()) < options_.min_landmark_observations) continue;
+    FrameRecord& r = frames_[index];
+    const auto refined = refinePose(
+        points_W, bearings_C, r.T_W_B, r.T_W_B.linear(), options_.rotation_prior_sigma_rad, model_,
+        options_.motion_only_iterations, options_.outlier_angle_deg * kDegToRad);
+    if (!refined || refined->num_inliers < options_.min_landmark_observations) continue;
+    r.T_W_B = refined->T_W_B;
+    r.T_kf_B = T_W_K0.inverse() * r.T_W_B;
   }
   reference_.reset();
   lost_frames_ = 0;

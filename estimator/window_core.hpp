@@ -145,8 +145,17 @@ class WindowCore {
     SE3 T_W_B = SE3::Identity();
     std::unordered_map<TrackId, TrackObservation> obs;
     int frame_index = 0;
+    // Frames since the reference (record index, their sightings of the reference's tracks):
+    // refined against the first landmarks once the window initialises.
+    std::vector<std::pair<int, std::vector<TrackObservation>>> pending;
   };
   std::optional<Reference> reference_;
+  Reference makeReference(const VisualFrame& frame, const SE3& T_W_B) const;
+  // The last still frame (while initialised) as a two-view reference at its held pose, with the
+  // frames since: the window restarts there when the tracks no longer fit its landmarks within
+  // kStillRestartS of the standstill's end (they crept while the robot stood).
+  std::optional<Reference> still_reference_;
+  static constexpr double kStillRestartS = 1.0;
 
   std::vector<FrameRecord> frames_;
   std::map<int, SE3> kf_poses_;  // keyframe id -> pose when it left the window (or final)
