@@ -1,6 +1,6 @@
-// RANSAC benchmarks (issue 5): whole relative-pose RANSAC per backend, the scoring alone per
-// backend, a plain Eigen scoring loop as the reference, the hypothesis generation, and OpenGV's
-// 8-point RANSAC as the peer when libopengv-dev is installed.
+// RANSAC benchmarks (issue 5): whole relative-pose RANSAC per backend, its hot loop (generation
+// and scoring) and the scoring alone per backend, a plain Eigen scoring loop as the reference, the
+// hypothesis generation, and OpenGV's 8-point RANSAC as the peer when libopengv-dev is installed.
 // Problem: wide-angle two-view bearings (up to 100 degrees off axis), 30 % outliers, 0.5 px noise
 // at 305 px/rad, 2000 fixed hypotheses. Run: build/ovo_bench --benchmark_filter='BM_Ransac'
 #include <benchmark/benchmark.h>
@@ -145,17 +145,34 @@ void BM_RansacScoreEigenNaive(benchmark::State& state) {
       benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
 }
 
-// 2000 minimal 8-point solves (sampling, batched Householder null vector, Jacobi projection), on
-// one thread or on the backend's threads.
+// 2000 minimal 8-point solves (sampling, batched Householder null vector, Jacobi projection) as
+// the backend generates them: one thread, the pool, or the OpenCL device (read back to the host).
 void BM_RansacHypotheses(benchmark::State& state, const std::string& backend) {
-  const test::SoAd soa = test::toSoAd(scene(1000));
+  const auto& s = scene(1000);
+  const SoA soa = toSoA(s);
+  const test::SoAd soa_d = test::toSoAd(s);
   auto scorer = gpu::makeScoringBackend(backend);
+  scorer->setMatches(soa.view(), soa_d.view());
   std::vector<float> E(9 * kHypotheses);
   for (auto _ : state) {
-    scorer->parallelFor(kHypotheses, [&](int b, int e) {
-      gpu::generateHypothesesCpu(soa.view(), 42, b, e, E.data() + 9 * b);
-    });
+    scorer->generate(42, 0, kHypotheses, E.data());
     benchmark::DoNotOptimize(E.data());
+  }
+}
+
+// RANSAC's hot loop alone: 2000 hypotheses generated and scored against n matches (the part of
+// BM_Ransac that the backend runs; the rest is the refit and refinement).
+void BM_RansacHot(benchmark::State& state, const std::string& backend, int n) {
+  const auto& s = scene(n);
+  const SoA soa = toSoA(s);
+  const test::SoAd soa_d = test::toSoAd(s);
+  auto scorer = gpu::makeScoringBackend(backend);
+  scorer->setMatches(soa.view(), soa_d.view());
+  std::vector<int> counts(kHypotheses);
+  const float k = gpu::inlierConstant(kThresholdRad);
+  for (auto _ : state) {
+    scorer->generateAndScore(42, 0, kHypotheses, k, counts.data());
+    benchmark::DoNotOptimize(counts.data());
   }
 }
 
@@ -204,6 +221,10 @@ const bool registered = [] {
           ->UseRealTime();
       benchmark::RegisterBenchmark(("BM_RansacScore" + size).c_str(),
                                    [b, n](benchmark::State& st) { BM_RansacScore(st, b, n); })
+          ->Unit(benchmark::kMillisecond)
+          ->UseRealTime();
+      benchmark::RegisterBenchmark(("BM_RansacHot" + size).c_str(),
+                                   [b, n](benchmark::State& st) { BM_RansacHot(st, b, n); })
           ->Unit(benchmark::kMillisecond)
           ->UseRealTime();
     }

@@ -112,7 +112,8 @@ std::array<RelativeMotion, 4> decomposeEssential(const Mat3& E) {
 std::optional<RelativeMotion> selectByCheirality(const Mat3& E, const std::vector<Vec3>& b_prev,
                                                  const std::vector<Vec3>& b_cur,
                                                  const std::vector<std::uint8_t>& flags,
-                                                 int* num_positive) {
+                                                 int* num_positive,
+                                                 const ParallelFor& parallel_for) {
   if (!E.allFinite()) return std::nullopt;
   const auto candidates = decomposeEssential(E);
   const std::size_t n = std::min(b_prev.size(), b_cur.size());
@@ -126,19 +127,25 @@ std::optional<RelativeMotion> selectByCheirality(const Mat3& E, const std::vecto
     for (std::size_t j = 0; j < kMaxVotes; ++j) kept[j] = voters[j * voters.size() / kMaxVotes];
     voters = std::move(kept);
   }
+  std::array<int, 4> counts{};
+  auto vote = [&](int k_begin, int k_end) {
+    for (int k = k_begin; k < k_end; ++k)
+      for (std::size_t i : voters) {
+        const auto p = triangulateMidpoint(candidates[k].R_cur_prev, candidates[k].t_cur_prev,
+                                           b_prev[i], b_cur[i], 1e-6);
+        if (p && p->depth_prev > 0.0 && p->depth_cur > 0.0) ++counts[k];
+      }
+  };
+  if (parallel_for)
+    parallel_for(4, vote);
+  else
+    vote(0, 4);
   int best_count = 0, best = -1;
-  for (int k = 0; k < 4; ++k) {
-    int count = 0;
-    for (std::size_t i : voters) {
-      const auto p = triangulateMidpoint(candidates[k].R_cur_prev, candidates[k].t_cur_prev,
-                                         b_prev[i], b_cur[i], 1e-6);
-      if (p && p->depth_prev > 0.0 && p->depth_cur > 0.0) ++count;
-    }
-    if (count > best_count) {
-      best_count = count;
+  for (int k = 0; k < 4; ++k)
+    if (counts[k] > best_count) {
+      best_count = counts[k];
       best = k;
     }
-  }
   if (num_positive) *num_positive = best_count;
   if (best < 0) return std::nullopt;
   return candidates[best];

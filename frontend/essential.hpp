@@ -57,11 +57,13 @@ std::array<RelativeMotion, 4> decomposeEssential(const Mat3& E);
 /// Picks among the four decompositions the one with the most flagged matches triangulated with
 /// positive depth along BOTH bearings (pairs without parallax are skipped; at most 300 matches,
 /// evenly spread over the flagged ones, vote). nullopt when no candidate has a positive point.
-/// *num_positive gets the winner's count.
+/// *num_positive gets the winner's count. parallel_for (optional) spreads the four candidates
+/// over threads; the result does not depend on it.
 std::optional<RelativeMotion> selectByCheirality(const Mat3& E, const std::vector<Vec3>& b_prev,
                                                  const std::vector<Vec3>& b_cur,
                                                  const std::vector<std::uint8_t>& flags,
-                                                 int* num_positive = nullptr);
+                                                 int* num_positive = nullptr,
+                                                 const ParallelFor& parallel_for = {});
 
 /// Rotation that best maps flagged b_prev onto b_cur (Kabsch / orthogonal Procrustes on the
 /// sphere: minimises sum |b_cur - R b_prev|^2). nullopt with fewer than 2 flagged matches.

@@ -44,24 +44,17 @@ RansacResult Ransac::run(const std::vector<Vec3>& b_prev, const std::vector<Vec3
     }
   const gpu::BearingsSoA bearings{prev_soa_d_.data(), cur_soa_d_.data(), n};
   const gpu::MatchesSoA matches{prev_soa_.data(), cur_soa_.data(), n};
-  backend_->setMatches(matches);
+  backend_->setMatches(matches, bearings);
   const float k = gpu::inlierConstant(options.inlier_threshold_rad);
 
   const int total = options.max_iterations;
   const int block = options.adaptive ? std::max(1, options.block_size) : total;
-  hypotheses_.resize(9 * static_cast<std::size_t>(total));
   counts_.assign(total, 0);
   int best = -1, best_count = 0, evaluated = 0;
   while (evaluated < total) {
     const int h0 = evaluated, h1 = std::min(total, evaluated + block);
-    // Hypothesis h depends on (seed, h) only: generated on any thread, identical everywhere.
-    float* E_block = &hypotheses_[9 * static_cast<std::size_t>(h0)];
-    backend_->generateAndScore(
-        h1 - h0,
-        [&](int b, int e) {
-          gpu::generateHypothesesCpu(bearings, options.seed, h0 + b, h0 + e, E_block + 9 * b);
-        },
-        E_block, k, &counts_[h0]);
+    // Hypothesis h depends on (seed, h) only: the same bits on every backend and thread.
+    backend_->generateAndScore(options.seed, h0, h1, k, &counts_[h0]);
     for (int h = h0; h < h1; ++h)
       if (counts_[h] > best_count) {  // strict: ties keep the lowest index
         best_count = counts_[h];
@@ -76,7 +69,8 @@ RansacResult Ransac::run(const std::vector<Vec3>& b_prev, const std::vector<Vec3
   result.iterations = evaluated;
   if (best < 0) return result;
 
-  const float* E_best = &hypotheses_[9 * static_cast<std::size_t>(best)];
+  float E_best[9];
+  gpu::generateHypothesesCpu(bearings, options.seed, best, best + 1, E_best);
   gpu::inlierFlagsCpu(E_best, matches, k, result.inliers.data());
   result.found = true;
   result.best_hypothesis = best;

@@ -1,7 +1,7 @@
 // Reproducible essential-matrix RANSAC on bearing matches (DESIGN sections 4, 5). Hypothesis k
-// draws its 8-sample from its own counter-based stream (seed, k), the batched 8-point solve
-// (gpu/hypotheses.hpp) runs on CPU threads (deterministic whatever thread runs it), the scoring
-// on the backend, so every backend evaluates the same hypotheses and returns the same winner and
+// draws its 8-sample from its own counter-based stream (seed, k) and is solved by the batched
+// 8-point (gpu/hypotheses.hpp) with the same bits on any thread or device; the backend generates
+// and scores, so every backend evaluates the same hypotheses and returns the same winner and
 // inlier set.
 #pragma once
 
@@ -61,7 +61,7 @@ class Ransac {
 
  private:
   std::unique_ptr<gpu::ScoringBackend> backend_;
-  std::vector<float> prev_soa_, cur_soa_, hypotheses_;
+  std::vector<float> prev_soa_, cur_soa_;
   std::vector<double> prev_soa_d_, cur_soa_d_;
   std::vector<int> counts_;
 };

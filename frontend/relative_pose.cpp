@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 
 #include "frontend/essential.hpp"
 #include "frontend/ransac.hpp"
@@ -106,67 +107,80 @@ RelativePoseResult RelativePoseEstimator::estimate(const std::vector<Vec3>& bear
     return result;
   }
 
-  // Parallax after removing the best pure rotation: a lower bound of the true rotation-compensated
-  // parallax, and the only well-posed quantity when the baseline is (near) zero.
+  // The refinement's ~20 short passes and the other per-match loops are split in two halves only
+  // (one per core): finer tasks lost more to dispatch than they gained.
+  const ParallelFor parallel_for = [this](int count, const std::function<void(int, int)>& fn) {
+    ransac_->parallelFor(2, [&](int t0, int t1) {
+      for (int t = t0; t < t1; ++t) fn(count * t / 2, count * (t + 1) / 2);
+    });
+  };
+  // Two independent steps, one per pool thread (in sequence on the serial backend): the parallax
+  // check and the least-squares refit on the consensus set.
   const double thr = options_.inlier_threshold_rad;
   const double min_parallax_rad = options_.min_parallax_deg / kRadToDeg;
-  // The consensus set of a (near) pure rotation may hold wrong matches that happen to lie on the
-  // epipolar circles of a random t: trim them by their angle after rotation, then refit.
   std::vector<std::uint8_t> rot_flags = rr.inliers;
-  auto R_rot = rotationOnly(b_prev, b_cur, rot_flags);
-  for (int pass = 0; pass < 3 && R_rot; ++pass) {
-    const double gate =
-        angleToChord(4.0 * thr + 3.0 * medianRotatedAngle(*R_rot, b_prev, b_cur, rot_flags));
-    for (std::size_t i = 0; i < n; ++i)
-      rot_flags[i] = rr.inliers[i] && rotatedChord(*R_rot, b_prev[i], b_cur[i]) < gate ? 1 : 0;
-    if (auto refit = rotationOnly(b_prev, b_cur, rot_flags)) R_rot = refit;
-  }
-  if (R_rot) {
-    const double parallax_rot = medianRotatedAngle(*R_rot, b_prev, b_cur, rot_flags);
-    if (parallax_rot < min_parallax_rad) {
-      const Mat3 R = *R_rot;
-      const double gate = angleToChord(4.0 * thr + 3.0 * parallax_rot);
-      std::vector<std::uint8_t> flags(n, 0);
-      for (std::size_t i = 0; i < n; ++i)
-        flags[i] = rotatedChord(R, b_prev[i], b_cur[i]) < gate ? 1 : 0;
-      result.num_inliers = countFlags(flags);
-      if (result.num_inliers < options_.min_inliers) {
-        result.status = Status::kNoConsensus;
-        result.num_inliers = 0;
-        return result;
+  std::optional<Mat3> R_rot;
+  double parallax_rot = 0.0;
+  Mat3 E0 = rr.E;
+  ransac_->parallelFor(2, [&](int task_begin, int task_end) {
+    for (int task = task_begin; task < task_end; ++task) {
+      if (task == 0) {
+        // Parallax after removing the best pure rotation: a lower bound of the true
+        // rotation-compensated parallax, and the only well-posed quantity when the baseline is
+        // (near) zero. The consensus set of a (near) pure rotation may hold wrong matches that
+        // happen to lie on the epipolar circles of a random t: trim them by their angle after
+        // rotation, then refit.
+        R_rot = rotationOnly(b_prev, b_cur, rot_flags);
+        for (int pass = 0; pass < 3 && R_rot; ++pass) {
+          const double gate =
+              angleToChord(4.0 * thr + 3.0 * medianRotatedAngle(*R_rot, b_prev, b_cur, rot_flags));
+          for (std::size_t i = 0; i < n; ++i)
+            rot_flags[i] =
+                rr.inliers[i] && rotatedChord(*R_rot, b_prev[i], b_cur[i]) < gate ? 1 : 0;
+          if (auto refit = rotationOnly(b_prev, b_cur, rot_flags)) R_rot = refit;
+        }
+        if (R_rot) parallax_rot = medianRotatedAngle(*R_rot, b_prev, b_cur, rot_flags);
+      } else {
+        if (auto refit = eightPoint(b_prev, b_cur, rr.inliers)) E0 = *refit;
       }
-      result.status = Status::kLowParallax;
-      result.R_cur_prev = R;
-      result.t_cur_prev = Vec3::Zero();
-      result.inliers = std::move(flags);
-      result.median_parallax_deg = medianRotatedAngle(R, b_prev, b_cur, result.inliers) * kRadToDeg;
+    }
+  });
+  if (R_rot && parallax_rot < min_parallax_rad) {
+    const Mat3 R = *R_rot;
+    const double gate = angleToChord(4.0 * thr + 3.0 * parallax_rot);
+    std::vector<std::uint8_t> flags(n, 0);
+    for (std::size_t i = 0; i < n; ++i)
+      flags[i] = rotatedChord(R, b_prev[i], b_cur[i]) < gate ? 1 : 0;
+    result.num_inliers = countFlags(flags);
+    if (result.num_inliers < options_.min_inliers) {
+      result.status = Status::kNoConsensus;
+      result.num_inliers = 0;
       return result;
     }
+    result.status = Status::kLowParallax;
+    result.R_cur_prev = R;
+    result.t_cur_prev = Vec3::Zero();
+    result.inliers = std::move(flags);
+    result.median_parallax_deg = medianRotatedAngle(R, b_prev, b_cur, result.inliers) * kRadToDeg;
+    return result;
   }
 
-  // Refit on the consensus set, cheirality on its triangulated points, refine on the sphere
-  // (Cauchy loss at half the threshold), re-select the inliers with the refined model, refine
-  // again.
-  const Mat3 E0 = eightPoint(b_prev, b_cur, rr.inliers).value_or(rr.E);
-  auto motion = selectByCheirality(E0, b_prev, b_cur, rr.inliers);
+  // Cheirality on the refit's triangulated points, refine on the sphere (Cauchy loss at half the
+  // threshold), re-select the inliers with the refined model, refine again.
+  auto motion = selectByCheirality(E0, b_prev, b_cur, rr.inliers, nullptr, parallel_for);
   if (!motion) {
     result.status = Status::kNoConsensus;
     return result;
   }
   const double thr2 = thr * thr;
   std::vector<std::uint8_t> flags = rr.inliers;
-  // The refinement's ~20 short passes are split in two halves only (one per core): finer tasks
-  // lost more to dispatch than they gained.
-  const ParallelFor parallel_for = [this](int count, const std::function<void(int, int)>& fn) {
-    ransac_->parallelFor(2, [&](int t0, int t1) {
-      for (int t = t0; t < t1; ++t) fn(count * t / 2, count * (t + 1) / 2);
-    });
-  };
   for (int round = 0; round < 2; ++round) {
     *motion =
         refineOnSphere(*motion, b_prev, b_cur, flags, round == 0 ? 6 : 4, 0.5 * thr, parallel_for);
     const Mat3 E = essentialFromMotion(motion->R_cur_prev, motion->t_cur_prev);
-    for (std::size_t i = 0; i < n; ++i) flags[i] = sphereError(E, b_prev[i], b_cur[i]) < thr2;
+    parallel_for(static_cast<int>(n), [&](int i0, int i1) {
+      for (int i = i0; i < i1; ++i) flags[i] = sphereError(E, b_prev[i], b_cur[i]) < thr2;
+    });
   }
   result.num_inliers = countFlags(flags);
   if (result.num_inliers < options_.min_inliers || !motion->R_cur_prev.allFinite() ||

@@ -1,7 +1,8 @@
 // RANSAC hypothesis generation (DESIGN sections 4, 5): reproducible 8-samples and a batched,
 // branch-free minimal 8-point solve on bearings, vectorised across hypotheses. Plain arrays only
 // (gpu/hypotheses_simd.cpp is built with -march=native and without FMA contraction), so the same
-// hypothesis gets the same bits whichever thread, batch or backend computes it.
+// hypothesis gets the same bits whichever thread, batch or backend computes it;
+// gpu/kernels/ransac_hypotheses.cl is the same solver, operation for operation, on the device.
 #pragma once
 
 #include <array>

@@ -20,69 +20,77 @@ void ScoringBackend::parallelFor(int n, const std::function<void(int, int)>& fn)
   if (n > 0) fn(0, n);
 }
 
-void ScoringBackend::generateAndScore(int num_hypotheses, const Generator& generate,
-                                      float* E_rowmajor, float k, int* inlier_counts) {
-  if (num_hypotheses <= 0) return;
-  generate(0, num_hypotheses);
-  score(E_rowmajor, num_hypotheses, k, inlier_counts);
-}
-
-void hostParallelFor(int n, const std::function<void(int, int)>& fn) {
-  if (n <= 0) return;
-  ThreadPool& pool = ThreadPool::shared();
-  const int tasks = std::min(n, 4 * pool.concurrency());
-  pool.run(tasks, [&](int t) {
-    fn(static_cast<int>(static_cast<long>(n) * t / tasks),
-       static_cast<int>(static_cast<long>(n) * (t + 1) / tasks));
-  });
+void generateAndScoreCpu(const BearingsSoA& bearings, const MatchesSoA& matches, std::uint64_t seed,
+                         int h_begin, int h_end, float k, int* counts) {
+  float E[9 * kFusedChunk];
+  for (int c0 = h_begin; c0 < h_end; c0 += kFusedChunk) {
+    const int c1 = std::min(h_end, c0 + kFusedChunk);
+    generateHypothesesCpu(bearings, seed, c0, c1, E);
+    scoreHypothesesCpu(E, 0, c1 - c0, matches, k, counts + (c0 - h_begin));
+  }
 }
 
 namespace {
 
-// Hypotheses per pool task of the threads backend: generated and scored while in L1.
-constexpr int kThreadsChunk = 64;
-
-/// One thread: the CPU kernel over all hypotheses.
+/// One thread: the CPU kernels over all hypotheses.
 class SerialBackend final : public ScoringBackend {
  public:
   std::string_view name() const override { return "serial"; }
-  void setMatches(const MatchesSoA& matches) override { matches_ = matches; }
+  void setMatches(const MatchesSoA& matches, const BearingsSoA& bearings) override {
+    matches_ = matches;
+    bearings_ = bearings;
+  }
   void score(const float* E, int num_hypotheses, float k, int* counts) override {
     scoreHypothesesCpu(E, 0, num_hypotheses, matches_, k, counts);
   }
+  void generateAndScore(std::uint64_t seed, int h_begin, int h_end, float k, int* counts) override {
+    generateAndScoreCpu(bearings_, matches_, seed, h_begin, h_end, k, counts);
+  }
+  void generate(std::uint64_t seed, int h_begin, int h_end, float* E) override {
+    generateHypothesesCpu(bearings_, seed, h_begin, h_end, E);
+  }
 
  private:
   MatchesSoA matches_;
+  BearingsSoA bearings_;
 };
 
-/// The CPU kernel over chunks of hypotheses on the thread pool (each count is computed by one
-/// thread with the serial arithmetic, so the counts equal the serial ones).
+/// The CPU kernels over chunks of kFusedChunk hypotheses on the thread pool, taken in turn by
+/// whichever thread is free (each count is computed by one thread with the serial arithmetic, so
+/// the counts equal the serial ones).
 class ThreadsBackend final : public ScoringBackend {
  public:
   std::string_view name() const override { return "threads"; }
-  void setMatches(const MatchesSoA& matches) override { matches_ = matches; }
+  void setMatches(const MatchesSoA& matches, const BearingsSoA& bearings) override {
+    matches_ = matches;
+    bearings_ = bearings;
+  }
   void score(const float* E, int num_hypotheses, float k, int* counts) override {
-    const int tasks = (num_hypotheses + kThreadsChunk - 1) / kThreadsChunk;
+    const int tasks = (num_hypotheses + kFusedChunk - 1) / kFusedChunk;
     ThreadPool::shared().run(tasks, [&](int t) {
-      const int b = t * kThreadsChunk, e = std::min(num_hypotheses, b + kThreadsChunk);
+      const int b = t * kFusedChunk, e = std::min(num_hypotheses, b + kFusedChunk);
       scoreHypothesesCpu(E, b, e, matches_, k, counts + b);
     });
   }
-  void generateAndScore(int num_hypotheses, const Generator& generate, float* E, float k,
-                        int* counts) override {
-    const int tasks = (num_hypotheses + kThreadsChunk - 1) / kThreadsChunk;
+  void generateAndScore(std::uint64_t seed, int h_begin, int h_end, float k, int* counts) override {
+    const int tasks = (h_end - h_begin + kFusedChunk - 1) / kFusedChunk;
     ThreadPool::shared().run(tasks, [&](int t) {
-      const int b = t * kThreadsChunk, e = std::min(num_hypotheses, b + kThreadsChunk);
-      generate(b, e);
-      scoreHypothesesCpu(E, b, e, matches_, k, counts + b);
+      const int b = h_begin + t * kFusedChunk, e = std::min(h_end, b + kFusedChunk);
+      generateAndScoreCpu(bearings_, matches_, seed, b, e, k, counts + (b - h_begin));
+    });
+  }
+  void generate(std::uint64_t seed, int h_begin, int h_end, float* E) override {
+    parallelForOnPool(h_end - h_begin, [&](int b, int e) {
+      generateHypothesesCpu(bearings_, seed, h_begin + b, h_begin + e, E + 9 * b);
     });
   }
   void parallelFor(int n, const std::function<void(int, int)>& fn) override {
-    hostParallelFor(n, fn);
+    parallelForOnPool(n, fn);
   }
 
  private:
   MatchesSoA matches_;
+  BearingsSoA bearings_;
 };
 
 }  // namespace

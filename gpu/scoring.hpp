@@ -9,6 +9,8 @@
 #include <string>
 #include <string_view>
 
+#include "gpu/hypotheses.hpp"
+
 namespace ovo::gpu {
 
 /// The inlier test shared bit-for-bit by every backend, for E (3x3) and unit bearings b_p, b_c:
@@ -34,28 +36,37 @@ void scoreHypothesesCpu(const float* E, int h_begin, int h_end, const MatchesSoA
                         int* counts);
 /// Inlier flags (0/1) of one hypothesis E9 with the same arithmetic as the counts.
 void inlierFlagsCpu(const float* E9, const MatchesSoA& m, float k, std::uint8_t* flags);
+/// Hypotheses per generate-then-score step of the CPU backends: their 9 floats stay in L1.
+inline constexpr int kFusedChunk = 32;
+/// generateHypothesesCpu then scoreHypothesesCpu over [h_begin, h_end), kFusedChunk at a time:
+/// counts[h - h_begin] = inliers of hypothesis h for `seed`.
+void generateAndScoreCpu(const BearingsSoA& bearings, const MatchesSoA& matches, std::uint64_t seed,
+                         int h_begin, int h_end, float k, int* counts);
 /// True when the CPU kernel was compiled with hardware FMA; the OpenCL kernel is built to match.
 bool cpuScoringUsesFma();
 
-/// A scoring backend: matches are set once per frame, then hypotheses are scored in blocks.
+/// A RANSAC backend: matches are set once per frame, then hypotheses are generated and scored in
+/// blocks. Hypothesis h is generateHypothesesCpu's hypothesis h for the seed, bit for bit, on
+/// every backend.
 class ScoringBackend {
  public:
   virtual ~ScoringBackend() = default;
   /// "serial", "threads" or "opencl".
   virtual std::string_view name() const = 0;
-  /// Uploads (or references) the matches used by the following score() calls.
-  virtual void setMatches(const MatchesSoA& matches) = 0;
+  /// Uploads (or references) the matches used by the following calls: float bearings for the
+  /// scoring and, for generateAndScore() and generate(), the same bearings in double.
+  virtual void setMatches(const MatchesSoA& matches, const BearingsSoA& bearings) = 0;
+  /// Matches for score() only.
+  void setMatches(const MatchesSoA& matches) { setMatches(matches, BearingsSoA{}); }
   /// inlier_counts[h] for the num_hypotheses hypotheses in E_rowmajor (9 floats each).
   virtual void score(const float* E_rowmajor, int num_hypotheses, float k, int* inlier_counts) = 0;
-  /// Fills hypotheses [begin, end) of the current block: 9 row-major floats each, at E + 9 begin.
-  using Generator = std::function<void(int begin, int end)>;
-  /// Generates and scores num_hypotheses hypotheses: generate() fills E_rowmajor, then
-  /// inlier_counts[h] is hypothesis h's count. The default generates everything and calls score();
-  /// threads runs generation and scoring of each chunk on one pool thread (the chunk stays in
-  /// cache), opencl scores chunk c on the device while the host generates chunk c + 1.
-  /// generate() must give the same floats whatever thread runs it.
-  virtual void generateAndScore(int num_hypotheses, const Generator& generate, float* E_rowmajor,
-                                float k, int* inlier_counts);
+  /// Generates hypotheses [h_begin, h_end) for `seed` and scores them:
+  /// inlier_counts[h - h_begin]. The hot loop of RANSAC: serial generates and scores chunks that
+  /// stay in L1, threads spreads the chunks over the pool, opencl runs both as device kernels.
+  virtual void generateAndScore(std::uint64_t seed, int h_begin, int h_end, float k,
+                                int* inlier_counts) = 0;
+  /// Hypotheses [h_begin, h_end) as this backend generates them: 9 row-major floats each.
+  virtual void generate(std::uint64_t seed, int h_begin, int h_end, float* E_rowmajor) = 0;
   /// Runs fn(begin, end) over sub-ranges covering [0, n): on the thread pool when the backend may
   /// use it (threads, opencl), else inline.
   virtual void parallelFor(int n, const std::function<void(int, int)>& fn);

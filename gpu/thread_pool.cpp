@@ -55,7 +55,8 @@ void ThreadPool::workerLoop() {
   std::uint32_t seen = 0;
   for (;;) {
     std::uint32_t now = generation_.load(std::memory_order_acquire);
-    for (int i = 0; i < kSpinIterations && now == seen; ++i) {
+    for (int i = 0; i < kSpinIterations && now == seen && !rest_.load(std::memory_order_relaxed);
+         ++i) {
       OVO_CPU_RELAX();
       now = generation_.load(std::memory_order_acquire);
     }
@@ -90,6 +91,7 @@ void ThreadPool::run(int num_tasks, const std::function<void(int)>& fn) {
     std::lock_guard lock(job_mutex_);
     job_ = job;
   }
+  rest_.store(false, std::memory_order_relaxed);
   publish();
   work(*job);
   for (int i = 0; job->done.load(std::memory_order_acquire) < num_tasks; ++i) {
@@ -100,6 +102,16 @@ void ThreadPool::run(int num_tasks, const std::function<void(int)>& fn) {
   }
   std::lock_guard lock(job_mutex_);
   job_.reset();
+}
+
+void parallelForOnPool(int n, const std::function<void(int, int)>& fn) {
+  if (n <= 0) return;
+  ThreadPool& pool = ThreadPool::shared();
+  const int tasks = std::min(n, 4 * pool.concurrency());
+  pool.run(tasks, [&](int t) {
+    fn(static_cast<int>(static_cast<long>(n) * t / tasks),
+       static_cast<int>(static_cast<long>(n) * (t + 1) / tasks));
+  });
 }
 
 }  // namespace ovo::gpu

@@ -31,6 +31,10 @@ class ThreadPool {
   /// a task's result must not depend on it. Concurrent callers are served one at a time.
   void run(int num_tasks, const std::function<void(int)>& fn);
 
+  /// Sends idle workers to sleep now instead of after their spin: for a caller that is about to
+  /// wait on other threads (an OpenCL device on the same cores). The next run() wakes them.
+  void rest() { rest_.store(true, std::memory_order_relaxed); }
+
  private:
   struct Job {
     const std::function<void(int)>* fn = nullptr;
@@ -50,6 +54,11 @@ class ThreadPool {
   std::condition_variable wake_;
   std::atomic<std::uint32_t> generation_{0};
   std::atomic<bool> stop_{false};
+  std::atomic<bool> rest_{false};
 };
+
+/// Runs fn(begin, end) over at most 4 concurrency() contiguous sub-ranges covering [0, n) on the
+/// shared pool.
+void parallelForOnPool(int n, const std::function<void(int, int)>& fn);
 
 }  // namespace ovo::gpu

@@ -110,12 +110,19 @@ TEST(Essential, CheiralityPicksEachOfTheFourCandidates) {
     int behind = 0;
     for (const auto& b : s.b_cur) behind += b.z() < 0 ? 1 : 0;
     EXPECT_GT(behind, 5);
-    for (const Mat3& E_signed : {E, Mat3(-E)}) {
-      const auto m = selectByCheirality(E_signed, s.b_prev, s.b_cur, {});
-      ASSERT_TRUE(m.has_value());
-      EXPECT_LT(rotationErrorRad(m->R_cur_prev, candidates[k].R_cur_prev), 1e-9) << "case " << k;
-      EXPECT_LT((m->t_cur_prev - candidates[k].t_cur_prev).norm(), 1e-9) << "case " << k;
-    }
+    // On one thread, and with the four candidates spread over the pool.
+    auto pool_for = [](int n, const std::function<void(int, int)>& fn) {
+      gpu::ThreadPool::shared().run(n, [&](int t) { fn(t, t + 1); });
+    };
+    for (const Mat3& E_signed : {E, Mat3(-E)})
+      for (const ParallelFor& parallel_for : {ParallelFor{}, ParallelFor{pool_for}}) {
+        int positive = -1;
+        const auto m = selectByCheirality(E_signed, s.b_prev, s.b_cur, {}, &positive, parallel_for);
+        ASSERT_TRUE(m.has_value());
+        EXPECT_LT(rotationErrorRad(m->R_cur_prev, candidates[k].R_cur_prev), 1e-9) << "case " << k;
+        EXPECT_LT((m->t_cur_prev - candidates[k].t_cur_prev).norm(), 1e-9) << "case " << k;
+        EXPECT_GT(positive, 30) << "case " << k;
+      }
   }
 }
 

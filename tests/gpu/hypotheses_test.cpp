@@ -7,7 +7,9 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/SVD>
+#include <algorithm>
 #include <atomic>
+#include <chrono>
 #include <cstring>
 #include <limits>
 #include <thread>
@@ -135,6 +137,24 @@ TEST(ThreadPool, RunsEveryTaskExactlyOnceOverManyJobs) {
     pool.run(tasks, [&](int t) { hits[t].fetch_add(1); });
     for (int t = 0; t < tasks; ++t) ASSERT_EQ(hits[t].load(), 1) << "job " << job << " task " << t;
   }
+}
+
+TEST(ThreadPool, RestingWorkersWakeForTheNextJob) {
+  ThreadPool pool(2);
+  int jobs_shared = 0;  // jobs whose tasks ran on more than the calling thread
+  for (int job = 0; job < 20; ++job) {
+    pool.rest();
+    std::vector<std::atomic<int>> hits(8);
+    std::vector<std::thread::id> ran_on(8);
+    pool.run(8, [&](int t) {
+      ran_on[t] = std::this_thread::get_id();
+      std::this_thread::sleep_for(std::chrono::microseconds(500));
+      hits[t].fetch_add(1);
+    });
+    for (int t = 0; t < 8; ++t) ASSERT_EQ(hits[t].load(), 1) << "job " << job << " task " << t;
+    jobs_shared += std::count(ran_on.begin(), ran_on.end(), std::this_thread::get_id()) < 8;
+  }
+  EXPECT_GT(jobs_shared, 0);
 }
 
 TEST(ThreadPool, ConcurrentCallersAreServedOneAtATime) {
