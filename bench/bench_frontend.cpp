@@ -68,6 +68,8 @@ frontend::FrontendOptions benchOptions(bool half = false, const std::string& bac
 }
 
 // One iteration = one frame: the two images alternate, so every frame is matched with the other.
+// Tracks matched here never end; the default history cap (TrackerOptions::max_history) bounds
+// their storage as in a real sequence (uncapped, the benchmark measured growing buffers).
 // backend: the RANSAC backend (issue 5 asks for the frontend's end-to-end time with each); the
 // stage counters are CPU time of this thread, so compare the threads/opencl variants by wall time.
 void runFrontend(benchmark::State& state, const std::optional<FramePair>& pair, bool half = false,

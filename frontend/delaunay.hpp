@@ -1,5 +1,5 @@
-// Delaunay triangulation of image points (incremental Bowyer-Watson with exact integer predicates)
-// and libviso2's flow-consistency outlier filter built on it (DESIGN section 4).
+// Delaunay triangulation of image points (incremental Lawson flips in BRIO order, exact integer
+// predicates) and libviso2's flow-consistency outlier filter built on it (DESIGN section 4).
 #pragma once
 
 #include <array>
@@ -11,7 +11,8 @@
 namespace ovo::frontend {
 
 /// Triangles (indices into `points`) of the Delaunay triangulation. Repeated points take part once
-/// (the first occurrence). Fewer than three distinct points: no triangles.
+/// (the first occurrence). Fewer than three distinct points: no triangles. Where the triangulation
+/// is not unique (four or more cocircular points) the choice is deterministic but arbitrary.
 std::vector<std::array<int, 3>> delaunayTriangles(const std::vector<Vec2>& points);
 
 /// Flow-consistency filter: triangulate the points px_cur; every Delaunay edge (i, j) with

@@ -27,11 +27,7 @@ void TrackManager::update(std::int64_t frame_index, Timestamp t_ns, const std::v
       continued_[p] = 1;
       track = std::move(tracks_[p]);
       ++track.age;
-      if (options_.max_history > 0 &&
-          static_cast<int>(track.history.size()) >= options_.max_history) {
-        track.history.erase(track.history.begin());
-      }
-      track.history.push_back(obs);
+      track.history.push_back(obs, options_.max_history);
       index_of_id_.emplace_back(track.id, static_cast<int>(j));
       continue;
     }

@@ -3,7 +3,9 @@
 // unmatched feature of the current frame starts a new track.
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
+#include <iterator>
 #include <utility>
 #include <vector>
 
@@ -19,12 +21,48 @@ struct TrackObservation {
   Vec3 bearing_C = Vec3::Zero();  // unit bearing in the camera frame
 };
 
+/// The newest sightings of a track, oldest first, read like a const std::vector. Capped appends
+/// drop the oldest in blocks (a buffer of at most twice the cap): O(1) amortised per frame.
+class TrackHistory {
+ public:
+  using const_iterator = std::vector<TrackObservation>::const_iterator;
+  using const_reverse_iterator = std::reverse_iterator<const_iterator>;
+
+  std::size_t size() const { return buffer_.size() - first_; }
+  bool empty() const { return size() == 0; }
+  const TrackObservation& operator[](std::size_t k) const { return buffer_[first_ + k]; }
+  const TrackObservation& front() const { return buffer_[first_]; }
+  const TrackObservation& back() const { return buffer_.back(); }
+  const_iterator begin() const { return buffer_.begin() + static_cast<std::ptrdiff_t>(first_); }
+  const_iterator end() const { return buffer_.end(); }
+  const_reverse_iterator rbegin() const { return const_reverse_iterator(end()); }
+  const_reverse_iterator rend() const { return const_reverse_iterator(begin()); }
+
+  void clear() {
+    buffer_.clear();
+    first_ = 0;
+  }
+  /// Appends obs; with max_size > 0 keeps only the newest max_size sightings.
+  void push_back(const TrackObservation& obs, int max_size = 0) {
+    buffer_.push_back(obs);
+    if (max_size <= 0 || size() <= static_cast<std::size_t>(max_size)) return;
+    if (++first_ >= static_cast<std::size_t>(max_size)) {
+      buffer_.erase(buffer_.begin(), buffer_.begin() + static_cast<std::ptrdiff_t>(first_));
+      first_ = 0;
+    }
+  }
+
+ private:
+  std::vector<TrackObservation> buffer_;
+  std::size_t first_ = 0;  // sightings before first_ are dropped
+};
+
 /// A track and its history, oldest first (capped at TrackerOptions::max_history; age is not).
 struct Track {
   std::uint64_t id = 0;
   int feature_class = 0;
   int age = 0;  // frames the track has lived, including the current one
-  std::vector<TrackObservation> history;
+  TrackHistory history;
   const TrackObservation& last() const { return history.back(); }
 };
 
@@ -38,8 +76,10 @@ struct FeatureObservation {
 };
 
 struct TrackerOptions {
-  int max_history = 0;  // observations kept per track (0 = all; the vo chain looks back to its
-                        // reference frame, which may be many frames old)
+  // Observations kept per track (0 = all). The vo chain looks back to its reference frame (at most
+  // vo.max_reference_frames = 6 frames) and the kf copies kf.lidar_baseline_s = 0.6 s of sightings
+  // (12 frames at 20 Hz): 32 covers both with room to spare.
+  int max_history = 32;
 };
 
 /// Owns the tracks. Call update() once per frame with the current features and, for each, the

@@ -1,10 +1,12 @@
-// Delaunay triangulation known answers: empty circumcircles, the triangle count of Euler's formula,
-// a fully cocircular lattice, repeated points.
+// Delaunay triangulation known answers: empty circumcircles (also on integer pixels, where many
+// points are cocircular or collinear), the triangle count of Euler's formula, a fully cocircular
+// lattice, repeated points.
 #include "frontend/delaunay.hpp"
 
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cstdint>
 #include <random>
 
 namespace ovo::frontend {
@@ -60,6 +62,63 @@ TEST(Delaunay, RandomPointsHaveEmptyCircumcirclesAndEulerCount) {
     }
   }
   EXPECT_EQ(violations, 0);
+}
+
+// > 0 when d is strictly inside the circle through the counter-clockwise a, b, c (exact for small
+// integer coordinates).
+std::int64_t inCircleExact(const Vec2& a, const Vec2& b, const Vec2& c, const Vec2& d) {
+  const auto ax = std::int64_t(a.x() - d.x()), ay = std::int64_t(a.y() - d.y());
+  const auto bx = std::int64_t(b.x() - d.x()), by = std::int64_t(b.y() - d.y());
+  const auto cx = std::int64_t(c.x() - d.x()), cy = std::int64_t(c.y() - d.y());
+  return (ax * ax + ay * ay) * (bx * cy - cx * by) + (bx * bx + by * by) * (cx * ay - ax * cy) +
+         (cx * cx + cy * cy) * (ax * by - bx * ay);
+}
+
+TEST(Delaunay, IntegerPixelsWithManyCocircularPointsGiveAnExactDelaunayTiling) {
+  // 2500 draws on a 120 x 90 pixel grid: repeats, collinear runs and cocircular quadruples.
+  std::mt19937 rng(11);
+  std::uniform_int_distribution<int> u(0, 119), v(0, 89);
+  std::vector<Vec2> pts(2500);
+  for (Vec2& p : pts) p = Vec2(u(rng), v(rng));
+  const auto tris = delaunayTriangles(pts);
+  std::vector<Vec2> distinct = pts;
+  std::sort(distinct.begin(), distinct.end(), [](const Vec2& a, const Vec2& b) {
+    return a.x() != b.x() ? a.x() < b.x() : a.y() < b.y();
+  });
+  distinct.erase(std::unique(distinct.begin(), distinct.end()), distinct.end());
+  // Every triangle counter-clockwise with an empty circumcircle, and together they tile the
+  // convex hull: their areas add up to the hull's (twice the area, exact in integers).
+  double area2 = 0.0;
+  int violations = 0;
+  for (const auto& t : tris) {
+    const Vec2 &a = pts[t[0]], &b = pts[t[1]], &c = pts[t[2]];
+    ASSERT_GT(cross(a, b, c), 0.0);
+    area2 += cross(a, b, c);
+    for (const Vec2& p : distinct) violations += inCircleExact(a, b, c, p) > 0;
+  }
+  EXPECT_EQ(violations, 0);
+  std::vector<Vec2> hull_pts = distinct;
+  double hull_area2 = 0.0;
+  {
+    std::vector<Vec2> h(2 * hull_pts.size());
+    int k = 0;
+    for (std::size_t i = 0; i < hull_pts.size(); ++i) {
+      while (k >= 2 && cross(h[k - 2], h[k - 1], hull_pts[i]) <= 0) --k;
+      h[k++] = hull_pts[i];
+    }
+    for (int i = static_cast<int>(hull_pts.size()) - 2, t = k + 1; i >= 0; --i) {
+      while (k >= t && cross(h[k - 2], h[k - 1], hull_pts[i]) <= 0) --k;
+      h[k++] = hull_pts[i];
+    }
+    for (int i = 1; i + 1 < k - 1; ++i) hull_area2 += cross(h[0], h[i], h[i + 1]);
+  }
+  EXPECT_EQ(area2, hull_area2);
+  // Repeated points take part once, as their first occurrence.
+  for (const auto& t : tris) {
+    for (const int i : t) {
+      for (int j = 0; j < i; ++j) ASSERT_FALSE(pts[j] == pts[i]) << i << " repeats " << j;
+    }
+  }
 }
 
 TEST(Delaunay, CocircularLatticeGivesTwoTrianglesPerCell) {

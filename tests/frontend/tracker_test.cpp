@@ -3,7 +3,9 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <fstream>
+#include <iterator>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <set>
@@ -60,6 +62,27 @@ TEST(TrackManager, HistoryCapKeepsTheNewestButCountsAge) {
   ASSERT_EQ(t->history.size(), 2u);
   EXPECT_EQ(t->history[0].frame_index, 3);
   EXPECT_EQ(t->last().frame_index, 4);
+}
+
+TEST(TrackManager, CappedHistoryHoldsExactlyTheNewestSightingsEveryFrame) {
+  // The cap drops old sightings in blocks internally; what a reader sees is always the newest 3.
+  TrackManager tracks(TrackerOptions{3});
+  tracks.update(0, 0, {{0, 0}}, {Vec3::UnitZ()}, {0}, {-1});
+  for (int k = 1; k < 12; ++k) {
+    tracks.update(k, 10 * k, {{double(k), 0}}, {Vec3::UnitZ()}, {0}, {0});
+    const TrackHistory& h = tracks.current(0).history;
+    ASSERT_EQ(h.size(), static_cast<std::size_t>(std::min(k + 1, 3)));
+    for (std::size_t i = 0; i < h.size(); ++i) {
+      EXPECT_EQ(h[i].frame_index, k + 1 - static_cast<int>(h.size()) + static_cast<int>(i));
+    }
+    EXPECT_EQ(h.rbegin()->frame_index, k);
+    EXPECT_EQ(std::prev(h.rend())->frame_index, h.front().frame_index);
+  }
+}
+
+TEST(TrackManager, DefaultHistoryCoversTheVoChainAndKfSpans) {
+  // vo.max_reference_frames = 6 and kf.lidar_baseline_s = 0.6 s at 20 Hz (12 frames).
+  EXPECT_GE(TrackerOptions{}.max_history, 13);
 }
 
 TEST(TrackManager, NewTracksStartCleanAfterLongTracksEnd) {
