@@ -164,6 +164,13 @@ void WindowCore::startReference(const VisualFrame& frame, const SE3& T_W_B) {
   reference_ = makeReference(frame, T_W_B);
 }
 
+void WindowCore::Reference::keepSightings(int frame_record, const VisualFrame& frame) {
+  std::vector<TrackObservation> seen;
+  for (const auto& o : frame.observations)
+    if (obs.count(o.track_id)) seen.push_back(o);
+  pending.emplace_back(frame_record, std::move(seen));
+}
+
 WindowCore::Reference WindowCore::makeReference(const VisualFrame& frame, const SE3& T_W_B) const {
   Reference r;
   r.t_ns = frame.t_ns;
@@ -309,12 +316,7 @@ FrameEstimate WindowCore::processFrame(const VisualFrame& frame_in) {
       e.T_W_B = T_pred;
       e.tracked = false;
       e.status = "initializing";
-      if (reference_) {
-        std::vector<TrackObservation> seen;
-        for (const auto& o : frame.observations)
-          if (reference_->obs.count(o.track_id)) seen.push_back(o);
-        reference_->pending.emplace_back(static_cast<int>(frames_.size()), std::move(seen));
-      }
+      if (reference_) reference_->keepSightings(static_cast<int>(frames_.size()), frame);
     }
   } else {
     // Shortly after a standstill, the frames' sightings of the still frame's tracks are kept
@@ -323,19 +325,14 @@ FrameEstimate WindowCore::processFrame(const VisualFrame& frame_in) {
       if (toSeconds(frame.t_ns - still_reference_->t_ns) > kStillRestartS) {
         still_reference_.reset();
       } else {
-        std::vector<TrackObservation> seen;
-        for (const auto& o : frame.observations)
-          if (still_reference_->obs.count(o.track_id)) seen.push_back(o);
-        still_reference_->pending.emplace_back(static_cast<int>(frames_.size()), std::move(seen));
+        still_reference_->keepSightings(static_cast<int>(frames_.size()), frame);
       }
     }
     // Motion-only refinement against the window's landmarks.
     std::vector<Vec3> points_W, bearings_C;
     std::vector<TrackId> ids;
     for (const auto& [id, o] : obs) {
-      auto lm = map_.landmarks.find(id);
-      if (lm == map_.landmarks.end()) continue;
-      if (auto p = map_.pointW(lm->second, setup_.T_B_C)) {
+      if (auto p = map_.pointW(id, setup_.T_B_C)) {
         points_W.push_back(*p);
         bearings_C.push_back(o.bearing_C);
         ids.push_back(id);
@@ -544,9 +541,7 @@ void WindowCore::associateLidar(Keyframe& kf, bool gate_depth) {
     const double max_tan_elevation = std::tan(options_.lidar_max_elevation_deg * kDegToRad);
     for (const auto& [id, o] : kf.observations) {
       if (have.count(id) || kf.lidar_rejected.count(id)) continue;
-      auto lm = map_.landmarks.find(id);
-      if (lm == map_.landmarks.end()) continue;
-      const auto p_W = map_.pointW(lm->second, setup_.T_B_C);
+      const auto p_W = map_.pointW(id, setup_.T_B_C);
       if (!p_W) continue;
       const Vec3 p_L = T_L_W * *p_W;
       const double d_xy = p_L.head<2>().norm();
@@ -561,9 +556,7 @@ void WindowCore::associateLidar(Keyframe& kf, bool gate_depth) {
   if (kf.lidar_candidates.empty()) return;
   for (const LidarAssociation& c : kf.lidar_candidates) {
     if (have.count(c.track_id) || kf.lidar_rejected.count(c.track_id)) continue;
-    auto lm = map_.landmarks.find(c.track_id);
-    if (lm == map_.landmarks.end()) continue;
-    const auto p_W = map_.pointW(lm->second, setup_.T_B_C);
+    const auto p_W = map_.pointW(c.track_id, setup_.T_B_C);
     if (!p_W) continue;
     const double d_lm = (T_L_W * *p_W).norm();
     if (gate_depth && std::abs(d_lm - c.range_m) > options_.lidar_depth_gate * c.range_m) continue;
@@ -996,9 +989,7 @@ bool WindowCore::tryInitialize(const VisualFrame& frame, const SE3& T_W_B_pred,
     if (index <= ref.frame_index || index >= static_cast<int>(frames_.size())) continue;
     std::vector<Vec3> points_W, bearings_C;
     for (const TrackObservation& o : seen) {
-      auto lm = map_.landmarks.find(o.track_id);
-      if (lm == map_.landmarks.end()) continue;
-      if (auto p = map_.pointW(lm->second, setup_.T_B_C)) {
+      if (auto p = map_.pointW(o.track_id, setup_.T_B_C)) {
         points_W.push_back(*p);
         bearings_C.push_back(o.bearing_C);
       }

@@ -148,6 +148,8 @@ class WindowCore {
     // Frames since the reference (record index, their sightings of the reference's tracks):
     // refined against the first landmarks once the window initialises.
     std::vector<std::pair<int, std::vector<TrackObservation>>> pending;
+    /// Adds the frame's sightings of the reference's tracks to `pending`.
+    void keepSightings(int frame_record, const VisualFrame& frame);
   };
   std::optional<Reference> reference_;
   Reference makeReference(const VisualFrame& frame, const SE3& T_W_B) const;

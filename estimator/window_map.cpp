@@ -40,6 +40,12 @@ std::optional<Vec3> WindowMap::pointW(const Landmark& lm, const SE3& T_B_C) cons
   return p_W;
 }
 
+std::optional<Vec3> WindowMap::pointW(TrackId id, const SE3& T_B_C) const {
+  const auto lm = landmarks.find(id);
+  if (lm == landmarks.end()) return std::nullopt;
+  return pointW(lm->second, T_B_C);
+}
+
 int WindowMap::observationCount(TrackId id) const {
   int n = 0;
   for (const auto& kf : keyframes) n += kf->observations.count(id) ? 1 : 0;

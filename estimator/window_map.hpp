@@ -90,6 +90,8 @@ class WindowMap {
 
   /// World point of a landmark, or nullopt when its anchor is gone or rho is not positive.
   std::optional<Vec3> pointW(const Landmark& lm, const SE3& T_B_C) const;
+  /// The same for the landmark of a track; nullopt also when the track has no landmark.
+  std::optional<Vec3> pointW(TrackId id, const SE3& T_B_C) const;
   /// Number of keyframes in the window that observe the track.
   int observationCount(TrackId id) const;
   /// Remembers the current world points of all landmarks (for the refinement's initial values).

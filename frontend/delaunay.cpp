@@ -125,23 +125,26 @@ class Triangulation {
     return t;
   }
 
+  // The closed fan of K triangles tris[i] = (ring[i], ring[i + 1], p) around p: edge 0 of each
+  // faces outer[i] (the twin across the ring edge), edges 1 and 2 join neighbouring triangles,
+  // and every ring edge is then legalised in order.
+  template <int K>
+  void fillFan(int p, const int (&tris)[K], const int (&ring)[K], const int (&outer)[K]) {
+    for (int i = 0; i < K; ++i) setTriangle(tris[i], ring[i], ring[(i + 1) % K], p);
+    for (int i = 0; i < K; ++i) {
+      link(3 * tris[i], outer[i]);
+      link(3 * tris[i] + 1, 3 * tris[(i + 1) % K] + 2);
+    }
+    for (int i = 0; i < K; ++i) legalize(3 * tris[i], p);
+  }
+
   // p strictly inside triangle t = (a, b, c): (a, b, p), (b, c, p), (c, a, p).
   void splitTriangle(int t, int p) {
     const int a = vert_[3 * t], b = vert_[3 * t + 1], c = vert_[3 * t + 2];
-    const int tw_bc = twin_[3 * t + 1], tw_ca = twin_[3 * t + 2];
+    const int tw_ab = twin_[3 * t], tw_bc = twin_[3 * t + 1], tw_ca = twin_[3 * t + 2];
     const int t1 = num_tris_, t2 = num_tris_ + 1;
     num_tris_ += 2;
-    setTriangle(t, a, b, p);
-    setTriangle(t1, b, c, p);
-    setTriangle(t2, c, a, p);
-    link(3 * t1, tw_bc);
-    link(3 * t2, tw_ca);
-    link(3 * t + 1, 3 * t1 + 2);
-    link(3 * t1 + 1, 3 * t2 + 2);
-    link(3 * t2 + 1, 3 * t + 2);
-    legalize(3 * t, p);
-    legalize(3 * t1, p);
-    legalize(3 * t2, p);
+    fillFan(p, {t, t1, t2}, {a, b, c}, {tw_ab, tw_bc, tw_ca});
   }
 
   // p on the interior of half-edge e = (a, b) of triangle (a, b, c), whose twin's triangle is
@@ -154,22 +157,7 @@ class Triangulation {
     const int tw_ad = twin_[nextEdge(o)], tw_db = twin_[prevEdge(o)];
     const int t3 = num_tris_, t4 = num_tris_ + 1;
     num_tris_ += 2;
-    setTriangle(t, b, c, p);
-    setTriangle(ot, c, a, p);
-    setTriangle(t3, a, d, p);
-    setTriangle(t4, d, b, p);
-    link(3 * t, tw_bc);
-    link(3 * ot, tw_ca);
-    link(3 * t3, tw_ad);
-    link(3 * t4, tw_db);
-    link(3 * t + 1, 3 * ot + 2);
-    link(3 * ot + 1, 3 * t3 + 2);
-    link(3 * t3 + 1, 3 * t4 + 2);
-    link(3 * t4 + 1, 3 * t + 2);
-    legalize(3 * t, p);
-    legalize(3 * ot, p);
-    legalize(3 * t3, p);
-    legalize(3 * t4, p);
+    fillFan(p, {t, ot, t3, t4}, {b, c, a, d}, {tw_bc, tw_ca, tw_ad, tw_db});
   }
 
   // Restores the Delaunay property around the new vertex p: e is the edge (a, b) opposite p of

@@ -58,6 +58,14 @@ using ClProgram = ClHandle<cl_program, clReleaseProgram>;
 using ClQueue = ClHandle<cl_command_queue, clReleaseCommandQueue>;
 using ClContextHandle = ClHandle<cl_context, clReleaseContext>;
 
+/// Sets the kernel's arguments 0, 1, ... to the given values (each passed by its size and
+/// address: cl_mem handles, cl_int, cl_float, cl_ulong ...), checking every call.
+template <typename... Args>
+void setKernelArgs(cl_kernel kernel, const Args&... args) {
+  cl_uint index = 0;
+  (clCheck(clSetKernelArg(kernel, index++, sizeof(Args), &args), "clSetKernelArg"), ...);
+}
+
 /// One OpenCL context on one device, shared by the process; builds programs once per
 /// (source, options) and hands out command queues (one per user, so users never share a queue).
 class OpenClContext {

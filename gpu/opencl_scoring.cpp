@@ -152,34 +152,15 @@ class OpenClBackend final : public ScoringBackend {
   }
 
   void enqueueGenerate(std::uint64_t seed, int h_begin, int stride) {
-    cl_kernel kern = generate_kernel_.get();
-    const cl_mem bp = prev_d_.get(), bc = cur_d_.get(), planes = planes_buf_.get();
-    const cl_int n_arg = n_, h_arg = h_begin, stride_arg = stride;
-    const cl_ulong seed_arg = seed;
-    clCheck(clSetKernelArg(kern, 0, sizeof(cl_mem), &bp), "clSetKernelArg");
-    clCheck(clSetKernelArg(kern, 1, sizeof(cl_mem), &bc), "clSetKernelArg");
-    clCheck(clSetKernelArg(kern, 2, sizeof(cl_int), &n_arg), "clSetKernelArg");
-    clCheck(clSetKernelArg(kern, 3, sizeof(cl_ulong), &seed_arg), "clSetKernelArg");
-    clCheck(clSetKernelArg(kern, 4, sizeof(cl_int), &h_arg), "clSetKernelArg");
-    clCheck(clSetKernelArg(kern, 5, sizeof(cl_mem), &planes), "clSetKernelArg");
-    clCheck(clSetKernelArg(kern, 6, sizeof(cl_int), &stride_arg), "clSetKernelArg");
+    setKernelArgs(generate_kernel_.get(), prev_d_.get(), cur_d_.get(), cl_int{n_}, cl_ulong{seed},
+                  cl_int{h_begin}, planes_buf_.get(), cl_int{stride});
     launch(generate_kernel_, static_cast<std::size_t>(stride / kGeneratePerItem),
            "clEnqueueNDRangeKernel(ransac_hypotheses8)");
   }
 
   void enqueueScore(int stride, float k) {
-    cl_kernel kern = score_kernel_.get();
-    const cl_mem planes = planes_buf_.get(), prev = prev_.get(), cur = cur_.get(),
-                 out = counts_buf_.get();
-    const cl_int stride_arg = stride, n_arg = n_;
-    const cl_float k_arg = k;
-    clCheck(clSetKernelArg(kern, 0, sizeof(cl_mem), &planes), "clSetKernelArg");
-    clCheck(clSetKernelArg(kern, 1, sizeof(cl_int), &stride_arg), "clSetKernelArg");
-    clCheck(clSetKernelArg(kern, 2, sizeof(cl_mem), &prev), "clSetKernelArg");
-    clCheck(clSetKernelArg(kern, 3, sizeof(cl_mem), &cur), "clSetKernelArg");
-    clCheck(clSetKernelArg(kern, 4, sizeof(cl_int), &n_arg), "clSetKernelArg");
-    clCheck(clSetKernelArg(kern, 5, sizeof(cl_float), &k_arg), "clSetKernelArg");
-    clCheck(clSetKernelArg(kern, 6, sizeof(cl_mem), &out), "clSetKernelArg");
+    setKernelArgs(score_kernel_.get(), planes_buf_.get(), cl_int{stride}, prev_.get(), cur_.get(),
+                  cl_int{n_}, cl_float{k}, counts_buf_.get());
     launch(score_kernel_, static_cast<std::size_t>(stride / kScorePerItem),
            "clEnqueueNDRangeKernel(ransac_score16)");
   }

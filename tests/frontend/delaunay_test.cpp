@@ -16,8 +16,8 @@ double cross(const Vec2& o, const Vec2& a, const Vec2& b) {
   return (a - o).x() * (b - o).y() - (a - o).y() * (b - o).x();
 }
 
-// Number of convex hull vertices (Andrew's monotone chain, collinear points excluded).
-int hullSize(std::vector<Vec2> p) {
+// Convex hull vertices, counter-clockwise (Andrew's monotone chain, collinear points excluded).
+std::vector<Vec2> convexHull(std::vector<Vec2> p) {
   std::sort(p.begin(), p.end(), [](const Vec2& a, const Vec2& b) {
     return a.x() != b.x() ? a.x() < b.x() : a.y() < b.y();
   });
@@ -31,7 +31,8 @@ int hullSize(std::vector<Vec2> p) {
     while (k >= t && cross(h[k - 2], h[k - 1], p[i]) <= 0) --k;
     h[k++] = p[i];
   }
-  return k - 1;
+  h.resize(k - 1);  // the last vertex repeats the first
+  return h;
 }
 
 TEST(Delaunay, RandomPointsHaveEmptyCircumcirclesAndEulerCount) {
@@ -42,7 +43,8 @@ TEST(Delaunay, RandomPointsHaveEmptyCircumcirclesAndEulerCount) {
   const auto tris = delaunayTriangles(pts);
   // A triangulation of n points with h on the hull has 2n - 2 - h triangles; the enclosing
   // triangle may cost a few thin ones along the hull.
-  const int expected = 2 * static_cast<int>(pts.size()) - 2 - hullSize(pts);
+  const int expected =
+      2 * static_cast<int>(pts.size()) - 2 - static_cast<int>(convexHull(pts).size());
   EXPECT_LE(static_cast<int>(tris.size()), expected);
   EXPECT_GE(static_cast<int>(tris.size()), expected - 5);
   int violations = 0;
@@ -97,21 +99,9 @@ TEST(Delaunay, IntegerPixelsWithManyCocircularPointsGiveAnExactDelaunayTiling) {
     for (const Vec2& p : distinct) violations += inCircleExact(a, b, c, p) > 0;
   }
   EXPECT_EQ(violations, 0);
-  std::vector<Vec2> hull_pts = distinct;
+  const std::vector<Vec2> h = convexHull(distinct);
   double hull_area2 = 0.0;
-  {
-    std::vector<Vec2> h(2 * hull_pts.size());
-    int k = 0;
-    for (std::size_t i = 0; i < hull_pts.size(); ++i) {
-      while (k >= 2 && cross(h[k - 2], h[k - 1], hull_pts[i]) <= 0) --k;
-      h[k++] = hull_pts[i];
-    }
-    for (int i = static_cast<int>(hull_pts.size()) - 2, t = k + 1; i >= 0; --i) {
-      while (k >= t && cross(h[k - 2], h[k - 1], hull_pts[i]) <= 0) --k;
-      h[k++] = hull_pts[i];
-    }
-    for (int i = 1; i + 1 < k - 1; ++i) hull_area2 += cross(h[0], h[i], h[i + 1]);
-  }
+  for (std::size_t i = 1; i + 1 < h.size(); ++i) hull_area2 += cross(h[0], h[i], h[i + 1]);
   EXPECT_EQ(area2, hull_area2);
   // Repeated points take part once, as their first occurrence.
   for (const auto& t : tris) {
