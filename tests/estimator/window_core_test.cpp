@@ -133,8 +133,9 @@ TEST(WindowCore, HoldsThePoseDuringAStandstill) {
 
 TEST(WindowCore, TracksThatCreptDuringAStandstillRestartFromTheStillPose) {
   // While the robot stands, each frame's sub-pixel error adds up along the tracks: here every
-  // track walks 0.25 px per still frame in its own direction and keeps that offset afterwards,
-  // so the window's landmarks no longer fit when the robot drives on.
+  // track walks 0.1 px per still frame in its own direction (4 px over the stop; slow enough that
+  // the standstill is still seen) and keeps that offset afterwards, so the window's landmarks no
+  // longer fit when the robot drives on.
   SyntheticOptions o;
   o.duration_s = 8.0;
   o.stop_from_s = 3.0;
@@ -144,10 +145,10 @@ TEST(WindowCore, TracksThatCreptDuringAStandstillRestartFromTheStillPose) {
   for (auto& f : seq.frames) {
     const double t = toSeconds(f.t_ns);
     for (auto& obs : f.visual.observations) {
-      Vec2& d = offset[obs.track_id];
+      Vec2& d = offset.try_emplace(obs.track_id, Vec2::Zero()).first->second;
       if (t > 3.05 && t < 5.0) {
         const double a = 2.399963 * static_cast<double>(obs.track_id);  // golden-angle directions
-        d += 0.25 * Vec2(std::cos(a), std::sin(a));
+        d += 0.1 * Vec2(std::cos(a), std::sin(a));
       }
       if (auto b = camera::unproject(seq.setup.camera, obs.px + d)) {
         obs.px += d;
@@ -168,7 +169,8 @@ TEST(WindowCore, TracksThatCreptDuringAStandstillRestartFromTheStillPose) {
           worst_m, (r.trajectory[i].T_W_B.translation() - truthRel(seq, i).translation()).norm());
   }
   std::printf("largest position error in the 2 s after the stop: %.3f m\n", worst_m);
-  EXPECT_LT(worst_m, 0.12);
+  // 0.008 m; re-initialising 5 lost frames later from a guessed pose instead gives 0.018 m.
+  EXPECT_LT(worst_m, 0.013);
 }
 
 TEST(WindowCore, StandstillBeforeInitialisationMeasuresTheGyroBias) {
