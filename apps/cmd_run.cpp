@@ -33,6 +33,7 @@ struct RunArgs {
   std::vector<std::string> sets;
   bool quiet = false;
   bool realtime = false;
+  bool serial = false;
   double rate = 1.0;
   int queue_depth = 2;
   bool viewer = false;
@@ -125,7 +126,7 @@ int runRun(const RunArgs& args) {
           if (const LidarScan* scan = nearestScan(data.scans, f.t_ns)) viewer->addScan(*scan);
           viewer->addFrame(f, grey);
         };
-      OfflineRunResult r = runOffline(data, *est, progress, on_frame);
+      OfflineRunResult r = runOffline(data, *est, progress, on_frame, {.pipelined = !args.serial});
       frames = std::move(r.frames);
       timing.wall_s = r.wall_s;
     }
@@ -175,7 +176,9 @@ int runRun(const RunArgs& args) {
     ReportInputs report;
     report.estimator = est->name();
     report.dataset = args.dataset;
-    report.mode = args.realtime ? fmt::format("realtime replay at {}x", args.rate) : "offline";
+    report.mode = args.realtime ? fmt::format("realtime replay at {}x", args.rate)
+                  : args.serial ? "offline, stages in sequence"
+                                : "offline, two-stage pipeline";
     report.estimate = trajectory;
     report.groundtruth = groundtruth;
     report.bias_estimate = est->biasHistory();
@@ -211,9 +214,14 @@ CommandRunner setupRun(CLI::App& sub) {
   sub.add_option("--refine", args->refine,
                  "full: re-optimise all keyframes at the end (offline accuracy; window only)")
       ->check(CLI::IsMember({"none", "full"}));
+  CLI::Option* serial = sub.add_flag(
+      "--serial", args->serial,
+      "Offline: frontend and estimator in sequence on one thread (the same poses as the "
+      "default two-stage pipeline, slower)");
   sub.add_flag("--realtime", args->realtime,
                "Replay at sensor rate through the threaded online pipeline (drops frames when "
-               "behind; metrics gain latency_ms_median/_p99 and frames_dropped)");
+               "behind; metrics gain latency_ms_median/_p99 and frames_dropped)")
+      ->excludes(serial);
   sub.add_option("--rate", args->rate, "Replay speed factor for --realtime (2 = twice as fast)")
       ->check(CLI::PositiveNumber)
       ->capture_default_str();

@@ -1,12 +1,158 @@
 #include "apps/offline_runner.hpp"
 
-#include <spdlog/spdlog.h>
-
 #include <chrono>
+#include <condition_variable>
+#include <deque>
+#include <exception>
+#include <mutex>
+#include <thread>
 
 #include "common/error.hpp"
 
 namespace ovo::app {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+// feedUntilImage sinks for one stage each.
+struct FrontendStage {
+  estimator::Estimator& est;
+  void addGyro(const ImuSample& s) { est.addFrontendGyro(s); }
+  void addScan(const LidarScan& /*scan*/) {}
+};
+struct EstimatorStage {
+  estimator::Estimator& est;
+  void addGyro(const ImuSample& s) { est.addEstimatorGyro(s); }
+  void addScan(const LidarScan& scan) { est.addScan(scan); }
+};
+
+void keepFrame(OfflineRunResult& result, estimator::FrameEstimate estimate, const cv::Mat& grey,
+               const FrameFn& on_frame) {
+  result.frames.push_back(std::move(estimate));
+  if (on_frame) on_frame(result.frames.back(), grey);
+  result.frames.back().tracks.clear();
+}
+
+void runInSequence(const io::Dataset& data, estimator::Estimator& est, const ProgressFn& progress,
+                   const FrameFn& on_frame, OfflineRunResult& result) {
+  std::size_t next_imu = 0, next_scan = 0;
+  const int total = static_cast<int>(data.images.size());
+  for (int i = 0; i < total; ++i) {
+    const auto& entry = data.images[i];
+    estimator::feedUntilImage(entry.t_ns, data.imu, next_imu, data.scans, next_scan, est);
+    const cv::Mat grey = io::loadImageGrey(entry);  // a corrupt image is an error naming the file
+    keepFrame(result, est.addImage(entry.t_ns, grey), grey, on_frame);
+    if (progress) progress(i + 1, total);
+  }
+  while (next_imu < data.imu.size()) est.addGyro(data.imu[next_imu++]);
+}
+
+// The frontend thread's hand-over to the estimator stage.
+class StageQueue {
+ public:
+  struct Item {
+    std::unique_ptr<estimator::FrontendFrame> frame;
+    cv::Mat grey;
+  };
+
+  // Frontend: blocks until update() is done for `updates` frames (false: stopping).
+  bool waitForUpdates(int updates) {
+    std::unique_lock lock(mutex_);
+    changed_.wait(lock, [&] { return stop_ || updates_done_ >= updates; });
+    return !stop_;
+  }
+  void push(Item item) {
+    {
+      std::lock_guard lock(mutex_);
+      items_.push_back(std::move(item));
+    }
+    changed_.notify_all();
+  }
+  // Estimator: the next tracked frame; nullopt when the frontend failed or stopped.
+  std::optional<Item> pop() {
+    std::unique_lock lock(mutex_);
+    changed_.wait(lock, [&] { return stop_ || !items_.empty(); });
+    if (items_.empty()) return std::nullopt;
+    Item item = std::move(items_.front());
+    items_.pop_front();
+    return item;
+  }
+  void updateDone() {
+    {
+      std::lock_guard lock(mutex_);
+      ++updates_done_;
+    }
+    changed_.notify_all();
+  }
+  void stop(std::exception_ptr error = nullptr) {
+    {
+      std::lock_guard lock(mutex_);
+      stop_ = true;
+      if (error && !error_) error_ = error;
+    }
+    changed_.notify_all();
+  }
+  std::exception_ptr error() {
+    std::lock_guard lock(mutex_);
+    return error_;
+  }
+
+ private:
+  std::mutex mutex_;
+  std::condition_variable changed_;
+  std::deque<Item> items_;
+  int updates_done_ = 0;
+  bool stop_ = false;
+  std::exception_ptr error_;
+};
+
+void runPipelined(const io::Dataset& data, estimator::Estimator& est, const ProgressFn& progress,
+                  const FrameFn& on_frame, OfflineRunResult& result) {
+  const int total = static_cast<int>(data.images.size());
+  StageQueue queue;
+  std::size_t frontend_imu = 0;  // the frontend thread's cursor
+  std::thread frontend([&] {
+    try {
+      std::size_t no_scan = data.scans.size();
+      FrontendStage stage{est};
+      for (int i = 0; i < total; ++i) {
+        const auto& entry = data.images[i];
+        cv::Mat grey = io::loadImageGrey(entry);  // a corrupt image is an error naming the file
+        estimator::feedUntilImage(entry.t_ns, data.imu, frontend_imu, data.scans, no_scan, stage);
+        if (!queue.waitForUpdates(i - 1)) return;  // track(i) after update(i - 2)
+        auto frame = est.track(entry.t_ns, grey);
+        queue.push({std::move(frame), std::move(grey)});
+      }
+    } catch (...) {
+      queue.stop(std::current_exception());
+    }
+  });
+  // Stops and joins the frontend thread however the estimator stage leaves.
+  struct Join {
+    StageQueue& queue;
+    std::thread& thread;
+    ~Join() {
+      queue.stop();
+      thread.join();
+    }
+  } join{queue, frontend};
+
+  std::size_t next_imu = 0, next_scan = 0;
+  EstimatorStage stage{est};
+  for (int i = 0; i < total; ++i) {
+    auto item = queue.pop();
+    if (!item) break;
+    estimator::feedUntilImage(data.images[i].t_ns, data.imu, next_imu, data.scans, next_scan,
+                              stage);
+    keepFrame(result, est.update(std::move(item->frame)), item->grey, on_frame);
+    queue.updateDone();
+    if (progress) progress(i + 1, total);
+  }
+  if (auto error = queue.error()) std::rethrow_exception(error);
+  while (next_imu < data.imu.size()) est.addGyro(data.imu[next_imu++]);
+}
+
+}  // namespace
 
 estimator::SensorSetup sensorSetupFrom(const io::Dataset& data) {
   if (!data.camera) fail("{}: the dataset has no camera calibration", data.root.string());
@@ -25,24 +171,16 @@ estimator::SensorSetup sensorSetupFrom(const io::Dataset& data) {
 }
 
 OfflineRunResult runOffline(const io::Dataset& data, estimator::Estimator& est,
-                            const ProgressFn& progress, const FrameFn& on_frame) {
+                            const ProgressFn& progress, const FrameFn& on_frame,
+                            const OfflineOptions& options) {
   OfflineRunResult result;
-  const auto t0 = std::chrono::steady_clock::now();
-  std::size_t next_imu = 0, next_scan = 0;
-  const int total = static_cast<int>(data.images.size());
-  for (int i = 0; i < total; ++i) {
-    const auto& entry = data.images[i];
-    estimator::feedUntilImage(entry.t_ns, data.imu, next_imu, data.scans, next_scan, est);
-
-    const cv::Mat grey = io::loadImageGrey(entry);  // a corrupt image is an error naming the file
-    result.frames.push_back(est.addImage(entry.t_ns, grey));
-    if (on_frame) on_frame(result.frames.back(), grey);
-    result.frames.back().tracks.clear();
-    if (progress) progress(i + 1, total);
-  }
-  while (next_imu < data.imu.size()) est.addGyro(data.imu[next_imu++]);
+  const auto t0 = Clock::now();
+  if (options.pipelined)
+    runPipelined(data, est, progress, on_frame, result);
+  else
+    runInSequence(data, est, progress, on_frame, result);
   est.finish();
-  result.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  result.wall_s = std::chrono::duration<double>(Clock::now() - t0).count();
   return result;
 }
 

@@ -4,6 +4,7 @@
 #pragma once
 
 #include <algorithm>
+#include <deque>
 #include <mutex>
 #include <span>
 #include <vector>
@@ -50,8 +51,11 @@ class GyroBuffer {
 };
 
 /// The gyro as the frontend stage sees it: samples fed from any thread (ahead of the estimator
-/// stage) and the bias the estimator stage published last (one frame stale when the stages run
-/// on two threads, current when they run in sequence).
+/// stage) and the biases the estimator stage published after each frame. The prior for the
+/// interval from frame k-1 to frame k uses the bias published after frame k-2 (the newest one
+/// published for a frame before t0): when the stages run on two threads, update(k-1) runs while
+/// track(k) does, so a newer bias would make the result depend on which thread is faster. Run in
+/// sequence or in two threads with track(k) started after update(k-2), the poses are the same.
 class FrontendGyro {
  public:
   /// What the rotation prior from t0 to t1 needs: GyroBuffer::around(t0, t1) and the bias.
@@ -64,24 +68,34 @@ class FrontendGyro {
     std::lock_guard lock(mutex_);
     return buffer_.add(s);
   }
-  void publishBias(const Vec3& bias_radps) {
+  /// The estimator stage's bias after the frame at t_frame (frames in time order).
+  void publishBias(Timestamp t_frame_ns, const Vec3& bias_radps) {
     std::lock_guard lock(mutex_);
-    bias_radps_ = bias_radps;
+    if (!biases_.empty() && t_frame_ns <= biases_.back().first) return;
+    biases_.emplace_back(t_frame_ns, bias_radps);
   }
-  /// Copies the samples around [t0, t1] and the bias, then forgets the samples before t0 (the
+  /// Copies the samples around [t0, t1] and the bias published for the newest frame before t0
+  /// (zero when there is none), then forgets the samples and biases no later call needs (the
   /// frontend's frames come in time order, so t0 is never earlier next time).
   Window take(Timestamp t0_ns, Timestamp t1_ns) {
     std::lock_guard lock(mutex_);
     const auto span = buffer_.around(t0_ns, t1_ns);
-    Window w{{span.begin(), span.end()}, bias_radps_};
+    Window w{{span.begin(), span.end()}, Vec3::Zero()};
     buffer_.dropBefore(t0_ns);
+    auto after = std::lower_bound(biases_.begin(), biases_.end(), t0_ns,
+                                  [](const auto& b, Timestamp t) { return b.first < t; });
+    if (after != biases_.begin()) {
+      --after;  // the newest published before t0
+      w.bias_radps = after->second;
+      biases_.erase(biases_.begin(), after);
+    }
     return w;
   }
 
  private:
   std::mutex mutex_;
   GyroBuffer buffer_;
-  Vec3 bias_radps_ = Vec3::Zero();
+  std::deque<std::pair<Timestamp, Vec3>> biases_;  // (frame time, bias), time order
 };
 
 }  // namespace ovo::estimator

@@ -272,7 +272,7 @@ class KfEstimator final : public Estimator {
       f.status = "non_finite";
     }
     f.gyro_bias = filter_.gyroBias();
-    frontend_gyro_.publishBias(f.gyro_bias);
+    frontend_gyro_.publishBias(t_ns, f.gyro_bias);
     if (f.tracked) ++stats_.frames_tracked;
     trajectory_.push_back({t_ns, f.T_W_B});
     base_trajectory_.push_back({t_ns, T_W_B_base});

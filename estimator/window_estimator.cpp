@@ -56,7 +56,7 @@ class WindowEstimator final : public Estimator {
   FrameEstimate update(std::unique_ptr<FrontendFrame> frame_in) override {
     const auto frame = frontendFrameAs<WindowFrontendFrame>(std::move(frame_in), "window");
     FrameEstimate e = core_.processFrame(frame->visual);
-    frontend_gyro_.publishBias(core_.gyroBias());
+    frontend_gyro_.publishBias(frame->t_ns, core_.gyroBias());
     e.frontend_ms = frame->frontend_ms;
     e.tracks = std::move(frame->tracks);
     return e;
