@@ -86,4 +86,33 @@ void searchBest(const std::uint8_t* query, const std::uint8_t* descs, const std:
                 const std::int16_t* vs, int begin, int end, int u0, int u1, int v0, int v1,
                 int* best_index, std::uint32_t* best_cost, std::uint32_t* second_cost);
 
+/// The binned features of one frame as searchWindow sees them: feature i of class c lies in bin
+/// (row, col) with bin_begin[(c * bins_v + row) * bins_u + col] <= i < ... [+ 1].
+struct SearchGrid {
+  const std::uint8_t* descs = nullptr;  // 32 bytes per feature
+  const std::int16_t* us = nullptr;
+  const std::int16_t* vs = nullptr;
+  const int* bin_begin = nullptr;
+  int bins_u = 0, bins_v = 0;
+  int bin_size = 1;             // pixels per bin (< 2^16)
+  int width = 0, height = 0;    // pixels
+  std::uint64_t bin_recip = 0;  // floor(2^32 / bin_size) + 1: x / bin_size == x * bin_recip >> 32
+};
+/// bin_recip for a bin size in [1, 2^16).
+inline std::uint64_t binReciprocal(int bin_size) {
+  return (std::uint64_t{1} << 32) / static_cast<std::uint64_t>(bin_size) + 1;
+}
+
+/// x / bin_size for 0 <= x < 2^16 (exact: the error of x * recip / 2^32 is below 1 / bin_size).
+inline int binIndex(int x, std::uint64_t bin_recip) {
+  return static_cast<int>((static_cast<std::uint64_t>(x) * bin_recip) >> 32);
+}
+
+/// searchBest over the features of class `cls` of every bin overlapping the window
+/// [u0, u1] x [v0, v1] (clipped to the image), bin rows in ascending order. *best_index = -1 and
+/// costs UINT32_MAX when nothing lies inside.
+void searchWindow(const std::uint8_t* query, const SearchGrid& grid, int cls, int u0, int u1,
+                  int v0, int v1, int* best_index, std::uint32_t* best_cost,
+                  std::uint32_t* second_cost);
+
 }  // namespace ovo::frontend::kernels

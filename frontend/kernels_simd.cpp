@@ -100,7 +100,28 @@ void sobel5x5(const std::uint8_t* img, int width, int height, int stride, std::u
     }
     std::uint8_t* du_row = du + static_cast<std::ptrdiff_t>(v) * width;
     std::uint8_t* dv_row = dv + static_cast<std::ptrdiff_t>(v) * width;
-    for (int u = 2; u < width - 2; ++u) {
+    int u = 2;
+#if defined(__AVX512BW__)
+    // 32 columns at a time in int16: |gu| <= 6 * 16 * 255 / 2 and |gv| <= 16 * 6 * 255 fit.
+    const __m512i offset = _mm512_set1_epi16(128), zero = _mm512_setzero_si512();
+    const auto at = [](const std::int16_t* row, int i) { return _mm512_loadu_si512(row + i); };
+    for (; u + 32 <= width - 2; u += 32) {
+      const __m512i gu = _mm512_sub_epi16(
+          _mm512_add_epi16(at(smooth, u + 2), _mm512_slli_epi16(at(smooth, u + 1), 1)),
+          _mm512_add_epi16(at(smooth, u - 2), _mm512_slli_epi16(at(smooth, u - 1), 1)));
+      const __m512i d0 = at(deriv, u);
+      const __m512i gv = _mm512_add_epi16(
+          _mm512_add_epi16(
+              _mm512_add_epi16(at(deriv, u - 2), at(deriv, u + 2)),
+              _mm512_slli_epi16(_mm512_add_epi16(at(deriv, u - 1), at(deriv, u + 1)), 2)),
+          _mm512_add_epi16(_mm512_slli_epi16(d0, 2), _mm512_slli_epi16(d0, 1)));
+      const __m512i bu = _mm512_max_epi16(_mm512_add_epi16(_mm512_srai_epi16(gu, 7), offset), zero);
+      const __m512i bv = _mm512_max_epi16(_mm512_add_epi16(_mm512_srai_epi16(gv, 7), offset), zero);
+      _mm256_storeu_si256(reinterpret_cast<__m256i*>(du_row + u), _mm512_cvtusepi16_epi8(bu));
+      _mm256_storeu_si256(reinterpret_cast<__m256i*>(dv_row + u), _mm512_cvtusepi16_epi8(bv));
+    }
+#endif
+    for (; u < width - 2; ++u) {
       const int gu = -smooth[u - 2] - 2 * smooth[u - 1] + 2 * smooth[u + 1] + smooth[u + 2];
       const int gv =
           deriv[u - 2] + 4 * deriv[u - 1] + 6 * deriv[u] + 4 * deriv[u + 1] + deriv[u + 2];
@@ -216,6 +237,71 @@ void extremumFilterT(const std::int16_t* in, int width, int height, int r, std::
   }
 }
 
+#if defined(__AVX512BW__)
+// The min and the max filter of extremumFilterT in one pass over the input, 32 columns at a time
+// with the window's rows (then columns) folded in registers.
+void extremumPair512(const std::int16_t* in, int width, int height, int r, std::int16_t* out_min,
+                     std::int16_t* out_max) {
+  t_rows.resize(width);
+  std::int16_t* t_min = t_rows.a.data();
+  std::int16_t* t_max = t_rows.b.data();
+  const auto lanes = [](int n) { return n >= 32 ? ~__mmask32{0} : (__mmask32{1} << n) - 1; };
+  for (int v = 0; v < height; ++v) {
+    const int v0 = std::max(0, v - r), v1 = std::min(height - 1, v + r);
+    for (int u = 0; u < width; u += 32) {
+      const __mmask32 m = lanes(width - u);
+      __m512i lo = _mm512_maskz_loadu_epi16(m, in + static_cast<std::ptrdiff_t>(v0) * width + u);
+      __m512i hi = lo;
+      for (int v2 = v0 + 1; v2 <= v1; ++v2) {
+        const __m512i x =
+            _mm512_maskz_loadu_epi16(m, in + static_cast<std::ptrdiff_t>(v2) * width + u);
+        lo = _mm512_min_epi16(lo, x);
+        hi = _mm512_max_epi16(hi, x);
+      }
+      _mm512_mask_storeu_epi16(t_min + u, m, lo);
+      _mm512_mask_storeu_epi16(t_max + u, m, hi);
+    }
+    std::int16_t* o_min = out_min + static_cast<std::ptrdiff_t>(v) * width;
+    std::int16_t* o_max = out_max + static_cast<std::ptrdiff_t>(v) * width;
+    const int lo_u = std::min(r, width), hi_u = std::max(lo_u, width - r);  // interior [lo, hi)
+    for (int u = lo_u; u < hi_u; u += 32) {
+      const __mmask32 m = lanes(hi_u - u);
+      __m512i lo = _mm512_maskz_loadu_epi16(m, t_min + u - r);
+      __m512i hi = _mm512_maskz_loadu_epi16(m, t_max + u - r);
+      for (int k = -r + 1; k <= r; ++k) {
+        lo = _mm512_min_epi16(lo, _mm512_maskz_loadu_epi16(m, t_min + u + k));
+        hi = _mm512_max_epi16(hi, _mm512_maskz_loadu_epi16(m, t_max + u + k));
+      }
+      _mm512_mask_storeu_epi16(o_min + u, m, lo);
+      _mm512_mask_storeu_epi16(o_max + u, m, hi);
+    }
+    const auto clipped = [&](int u) {
+      const int u0 = std::max(0, u - r), u1 = std::min(width - 1, u + r);
+      std::int16_t a = t_min[u0], b = t_max[u0];
+      for (int u2 = u0 + 1; u2 <= u1; ++u2) {
+        a = std::min(a, t_min[u2]);
+        b = std::max(b, t_max[u2]);
+      }
+      o_min[u] = a;
+      o_max[u] = b;
+    };
+    for (int u = 0; u < lo_u; ++u) clipped(u);
+    for (int u = hi_u; u < width; ++u) clipped(u);
+  }
+}
+#endif
+
+// Min (out_min) and max (out_max) over the (2 r + 1)^2 window clipped to the image.
+void extremumPair(const std::int16_t* in, int width, int height, int r, std::int16_t* out_min,
+                  std::int16_t* out_max) {
+#if defined(__AVX512BW__)
+  extremumPair512(in, width, height, r, out_min, out_max);
+#else
+  extremumFilterT<false>(in, width, height, r, out_min);
+  extremumFilterT<true>(in, width, height, r, out_max);
+#endif
+}
+
 // True when a pixel before (u, v) in raster order within the (2 r + 1)^2 window has `value`.
 bool earlierEqual(const std::int16_t* response, int width, int u, int v, int r, int value) {
   const int u0 = std::max(0, u - r), u1 = std::min(width - 1, u + r);
@@ -243,7 +329,9 @@ bool earlierEqual(const std::int16_t* response, int width, int u, int v, int r, 
 }
 
 thread_local std::vector<std::int16_t> t_extrema[4];
+#if !defined(__AVX512BW__)
 thread_local std::vector<std::uint8_t> t_flags;
+#endif
 
 }  // namespace
 
@@ -265,9 +353,10 @@ void nonMaximumSuppression(const std::int16_t* blob, const std::int16_t* corner,
   const std::int16_t* extremum[4];
   for (int c = 0; c < 4; ++c) {
     t_extrema[c].resize(size);
-    extremumFilter(response[c], width, height, n, (c & 1) != 0, t_extrema[c].data());
     extremum[c] = t_extrema[c].data();
   }
+  extremumPair(blob, width, height, n, t_extrema[0].data(), t_extrema[1].data());
+  extremumPair(corner, width, height, n, t_extrema[2].data(), t_extrema[3].data());
   // The (2 n_sparse + 1)^2 extremum is that of the (2n + 1)^2 windows centred at the offsets
   // {-s, 0, s}^2 with s = n_sparse - n, when these windows cover it (n_sparse <= 3n + 1).
   const int s = n_sparse - n;
@@ -289,6 +378,46 @@ void nonMaximumSuppression(const std::int16_t* blob, const std::int16_t* corner,
   };
   const int u_end = width - margin, v_end = height - margin;  // exclusive
   if (u_end <= margin) return;
+  const auto emit = [&](int cls, int u, int v, std::ptrdiff_t row) {
+    const int value = response[cls][row + u];
+    if (earlierEqual(response[cls], width, u, v, n, value)) return;
+    out->push_back({static_cast<std::int16_t>(u), static_cast<std::int16_t>(v),
+                    static_cast<std::int16_t>(value), static_cast<std::uint8_t>(cls),
+                    static_cast<std::uint8_t>(isSparse(cls, u, v, value))});
+  };
+#if defined(__AVX512BW__)
+  // 32 pixels at a time: one bit mask per class, then the set pixels in raster order.
+  const __m512i neg_tau = _mm512_set1_epi16(static_cast<std::int16_t>(-tau));
+  const __m512i pos_tau = _mm512_set1_epi16(static_cast<std::int16_t>(tau));
+  for (int v = margin; v < v_end; ++v) {
+    const std::ptrdiff_t row = static_cast<std::ptrdiff_t>(v) * width;
+    for (int u0 = margin; u0 < u_end; u0 += 32) {
+      const int count = std::min(32, u_end - u0);
+      const __mmask32 lanes = count == 32 ? ~__mmask32{0} : (__mmask32{1} << count) - 1;
+      const auto load = [&](const std::int16_t* plane) {
+        return _mm512_maskz_loadu_epi16(lanes, plane + row + u0);
+      };
+      const __m512i b = load(blob), c = load(corner);
+      const __mmask32 cls_mask[4] = {
+          _mm512_mask_cmpeq_epi16_mask(_mm512_cmple_epi16_mask(b, neg_tau) & lanes, b,
+                                       load(extremum[0])),
+          _mm512_mask_cmpeq_epi16_mask(_mm512_cmpge_epi16_mask(b, pos_tau) & lanes, b,
+                                       load(extremum[1])),
+          _mm512_mask_cmpeq_epi16_mask(_mm512_cmple_epi16_mask(c, neg_tau) & lanes, c,
+                                       load(extremum[2])),
+          _mm512_mask_cmpeq_epi16_mask(_mm512_cmpge_epi16_mask(c, pos_tau) & lanes, c,
+                                       load(extremum[3]))};
+      std::uint32_t any = cls_mask[0] | cls_mask[1] | cls_mask[2] | cls_mask[3];
+      while (any) {
+        const int bit = __builtin_ctz(any);
+        any &= any - 1;
+        for (int cls = 0; cls < 4; ++cls) {
+          if ((cls_mask[cls] >> bit) & 1u) emit(cls, u0 + bit, v, row);
+        }
+      }
+    }
+  }
+#else
   t_flags.resize(width);
   std::uint8_t* flags = t_flags.data();
   for (int v = margin; v < v_end; ++v) {
@@ -312,17 +441,12 @@ void nonMaximumSuppression(const std::int16_t* blob, const std::int16_t* corner,
           continue;
         }
       }
-      if (!flags[u]) continue;
       for (int cls = 0; cls < 4; ++cls) {
-        if (!(flags[u] & (1 << cls))) continue;
-        const int value = response[cls][row + u];
-        if (earlierEqual(response[cls], width, u, v, n, value)) continue;
-        out->push_back({static_cast<std::int16_t>(u), static_cast<std::int16_t>(v),
-                        static_cast<std::int16_t>(value), static_cast<std::uint8_t>(cls),
-                        static_cast<std::uint8_t>(isSparse(cls, u, v, value))});
+        if (flags[u] & (1 << cls)) emit(cls, u, v, row);
       }
     }
   }
+#endif
 }
 
 std::uint32_t sad32(const std::uint8_t* a, const std::uint8_t* b) { return sadInline(a, b); }
@@ -473,6 +597,27 @@ void searchBest(const std::uint8_t* query, const std::uint8_t* descs, const std:
   *best_index = index;
   *best_cost = cost;
   *second_cost = second;
+}
+
+void searchWindow(const std::uint8_t* query, const SearchGrid& grid, int cls, int u0, int u1,
+                  int v0, int v1, int* best_index, std::uint32_t* best_cost,
+                  std::uint32_t* second_cost) {
+  *best_index = -1;
+  *best_cost = ~std::uint32_t{0};
+  *second_cost = ~std::uint32_t{0};
+  u0 = std::max(u0, 0);
+  u1 = std::min(u1, grid.width - 1);
+  v0 = std::max(v0, 0);
+  v1 = std::min(v1, grid.height - 1);
+  if (u0 > u1 || v0 > v1) return;
+  const auto binOf = [&](int x) { return binIndex(x, grid.bin_recip); };
+  const int col0 = binOf(u0), col1 = std::min(binOf(u1), grid.bins_u - 1);
+  const int row0 = binOf(v0), row1 = std::min(binOf(v1), grid.bins_v - 1);
+  for (int row = row0; row <= row1; ++row) {
+    const int* first = grid.bin_begin + (cls * grid.bins_v + row) * grid.bins_u;
+    searchBest(query, grid.descs, grid.us, grid.vs, first[col0], first[col1 + 1], u0, u1, v0, v1,
+               best_index, best_cost, second_cost);
+  }
 }
 
 }  // namespace ovo::frontend::kernels

@@ -17,6 +17,16 @@ Vec2 toGrid(const FeatureFrame& frame, const Vec2& px_full) {
   return frame.scale == 1 ? px_full : Vec2((px_full.x() - 0.5) / 2.0, (px_full.y() - 0.5) / 2.0);
 }
 
+// std::floor / std::ceil for |x| < 2^31, without the SSE2 emulation of rounding instructions.
+int floorToInt(double x) {
+  const int i = static_cast<int>(x);
+  return i - (x < i);
+}
+int ceilToInt(double x) {
+  const int i = static_cast<int>(x);
+  return i + (x > i);
+}
+
 // Vertex of the parabola through (-1, l), (0, c), (1, r); nullopt unless c is the minimum of the
 // three (then the vertex lies within +-0.5).
 std::optional<double> parabolaMinimum(double l, double c, double r) {
@@ -66,6 +76,22 @@ void sparseSubset(const FeatureFrame& in, FeatureFrame* out, std::vector<int>* i
   out->bin_begin.back() = static_cast<int>(out->features.size());
 }
 
+// The search view of a frame (pointers into it: valid while the frame is unchanged).
+kernels::SearchGrid searchGrid(const FeatureFrame& frame) {
+  kernels::SearchGrid g;
+  g.descs = frame.descriptors.data();
+  g.us = frame.us.data();
+  g.vs = frame.vs.data();
+  g.bin_begin = frame.bin_begin.data();
+  g.bins_u = frame.bins_u;
+  g.bins_v = frame.bins_v;
+  g.bin_size = frame.bin_size;
+  g.width = frame.filters.width;
+  g.height = frame.filters.height;
+  g.bin_recip = kernels::binReciprocal(frame.bin_size);
+  return g;
+}
+
 }  // namespace
 
 void Matcher::mergeNeighbours(int bins_u, int bins_v, std::vector<FlowRange>* ranges) {
@@ -110,8 +136,13 @@ Matcher::Window Matcher::window(const FeatureFrame& from, int index, const Featu
   double v_lo = c.y() - radius, v_hi = c.y() + radius;
   if (prior) {
     const Feature& f = from.features[index];
-    int row = 0;
-    const int col = from.binOf(f.u, f.v, &row);
+    int row = 0, col = 0;
+    if (from.bin_size == recip_bin_size_ && f.u >= 0 && f.v >= 0) {  // the common case, no idiv
+      col = std::min(kernels::binIndex(f.u, bin_recip_), from.bins_u - 1);
+      row = std::min(kernels::binIndex(f.v, bin_recip_), from.bins_v - 1);
+    } else {
+      col = from.binOf(f.u, f.v, &row);
+    }
     const FlowRange& r = (*prior)[row * from.bins_u + col];
     if (r.count > 0) {
       const double m = options_.flow_margin_px / static_cast<double>(to.scale);
@@ -121,27 +152,15 @@ Matcher::Window Matcher::window(const FeatureFrame& from, int index, const Featu
       v_hi = std::min(v_hi, c.y() + r.v_max + m);
     }
   }
-  return {static_cast<int>(std::ceil(u_lo)), static_cast<int>(std::floor(u_hi)),
-          static_cast<int>(std::ceil(v_lo)), static_cast<int>(std::floor(v_hi))};
+  return {ceilToInt(u_lo), floorToInt(u_hi), ceilToInt(v_lo), floorToInt(v_hi)};
 }
 
-int Matcher::search(const FeatureFrame& from, int index, const FeatureFrame& to, const Window& w,
-                    std::uint32_t* cost) const {
-  const int u0 = std::max(w.u0, 0), u1 = std::min(w.u1, to.filters.width - 1);
-  const int v0 = std::max(w.v0, 0), v1 = std::min(w.v1, to.filters.height - 1);
+int Matcher::search(const FeatureFrame& from, int index, const kernels::SearchGrid& to,
+                    const Window& w, std::uint32_t* cost) const {
   int best = -1;
-  *cost = kNoCost;
   std::uint32_t second = kNoCost;
-  if (u0 > u1 || v0 > v1) return best;
-  const int cls = static_cast<int>(from.features[index].cls);
-  const int col0 = u0 / to.bin_size, col1 = std::min(u1 / to.bin_size, to.bins_u - 1);
-  const int row0 = v0 / to.bin_size, row1 = std::min(v1 / to.bin_size, to.bins_v - 1);
-  const std::uint8_t* query = from.descriptor(index);
-  for (int row = row0; row <= row1; ++row) {
-    const auto [begin, end] = to.binRange(cls, row, col0, col1);
-    kernels::searchBest(query, to.descriptors.data(), to.us.data(), to.vs.data(), begin, end, u0,
-                        u1, v0, v1, &best, cost, &second);
-  }
+  kernels::searchWindow(from.descriptor(index), to, static_cast<int>(from.features[index].cls),
+                        w.u0, w.u1, w.v0, w.v1, &best, cost, &second);
   // Uniqueness: the runner-up must be clearly worse (integer form of best / second < ratio).
   if (best >= 0 && second != kNoCost &&
       static_cast<double>(*cost) > options_.max_cost_ratio * static_cast<double>(second)) {
@@ -248,22 +267,30 @@ std::vector<Match> Matcher::match(const FeatureFrame& prev, const FeatureFrame& 
   const std::vector<Vec2>* pred_prev_of_cur = prediction ? &prediction->prev_px_of_cur : nullptr;
   const std::vector<std::uint8_t>* cur_valid = prediction ? &prediction->cur_valid : nullptr;
 
+  recip_bin_size_ = prev.bin_size;
+  bin_recip_ = kernels::binReciprocal(prev.bin_size);
   const double t0 = threadCpuMs();
   // Sparse pass: circle-checked matches among the sparse features over the full window.
   const bool use_prior = options_.sparse_pass;
   if (use_prior) {
     sparseSubset(prev, &prev_sparse_, &prev_sparse_index_);
     sparseSubset(cur, &cur_sparse_, &cur_sparse_index_);
+    const kernels::SearchGrid prev_sparse_grid = searchGrid(prev_sparse_);
+    const kernels::SearchGrid cur_sparse_grid = searchGrid(cur_sparse_);
     std::vector<std::pair<int, int>>& sparse = sparse_pairs_;
     sparse.clear();
+    sparse_reverse_.assign(prev_sparse_.size(), -2);  // memo of previous -> current searches
     for (const int q : cur_sparse_index_) {
       std::uint32_t cost = 0;
-      const int p_sub = search(cur, q, prev_sparse_,
+      const int p_sub = search(cur, q, prev_sparse_grid,
                                window(cur, q, prev, pred_prev_of_cur, cur_valid, nullptr), &cost);
       if (p_sub < 0) continue;
       const int p = prev_sparse_index_[p_sub];
-      const int q2_sub = search(prev, p, cur_sparse_,
-                                window(prev, p, cur, pred_cur_of_prev, prev_valid, nullptr), &cost);
+      int& q2_sub = sparse_reverse_[p_sub];
+      if (q2_sub == -2) {
+        q2_sub = search(prev, p, cur_sparse_grid,
+                        window(prev, p, cur, pred_cur_of_prev, prev_valid, nullptr), &cost);
+      }
       if (q2_sub >= 0 && cur_sparse_index_[q2_sub] == q) sparse.emplace_back(p, q);
     }
     px_.resize(sparse.size());
@@ -317,20 +344,23 @@ std::vector<Match> Matcher::match(const FeatureFrame& prev, const FeatureFrame& 
   // Dense pass with circle check previous -> current -> previous.
   selectQueries(prev, prev_priority);
   local_stats.queries = static_cast<int>(queries_.size());
-  std::vector<Match> matches;
-  matches.reserve(std::min(queries_.size(), static_cast<std::size_t>(cur.size())));
+  const kernels::SearchGrid prev_grid = searchGrid(prev), cur_grid = searchGrid(cur);
+  // A current feature matches at most one previous one (the result of its reverse search): the
+  // matches go to slot_of_cur_ and come out ordered by current index.
+  match_buffer_.clear();
+  slot_of_cur_.assign(cur.size(), -1);
   reverse_.assign(cur.size(), -2);
   for (const int p : queries_) {
     std::uint32_t cost = 0;
     const int q = search(
-        prev, p, cur,
+        prev, p, cur_grid,
         window(prev, p, cur, pred_cur_of_prev, prev_valid, use_prior ? &prior_from_prev_ : nullptr),
         &cost);
     if (q < 0) continue;
     if (reverse_[q] == -2) {
       std::uint32_t back_cost = 0;
       reverse_[q] = search(
-          cur, q, prev,
+          cur, q, prev_grid,
           window(cur, q, prev, pred_prev_of_cur, cur_valid, use_prior ? &prior_from_cur_ : nullptr),
           &back_cost);
     }
@@ -342,10 +372,14 @@ std::vector<Match> Matcher::match(const FeatureFrame& prev, const FeatureFrame& 
     const bool response = options_.subpixel == SubpixelMode::kResponse;
     m.px_prev = prev.pixel(p, response);
     m.px_cur = cur.pixel(q, response);
-    matches.push_back(m);
+    slot_of_cur_[q] = static_cast<int>(match_buffer_.size());
+    match_buffer_.push_back(m);
   }
-  std::sort(matches.begin(), matches.end(),
-            [](const Match& a, const Match& b) { return a.cur < b.cur; });
+  std::vector<Match> matches;
+  matches.reserve(match_buffer_.size());
+  for (const int slot : slot_of_cur_) {
+    if (slot >= 0) matches.push_back(match_buffer_[slot]);
+  }
   local_stats.circle_matches = static_cast<int>(matches.size());
   const double t2 = threadCpuMs();
 

@@ -100,7 +100,7 @@ class Matcher {
   Window window(const FeatureFrame& from, int index, const FeatureFrame& to,
                 const std::vector<Vec2>* predicted, const std::vector<std::uint8_t>* valid,
                 const std::vector<FlowRange>* prior) const;
-  int search(const FeatureFrame& from, int index, const FeatureFrame& to, const Window& w,
+  int search(const FeatureFrame& from, int index, const kernels::SearchGrid& to, const Window& w,
              std::uint32_t* cost) const;
   std::optional<Vec2> refineCost(const FeatureFrame& prev, int p, const FeatureFrame& cur,
                                  int q) const;
@@ -114,7 +114,12 @@ class Matcher {
   std::vector<FlowRange> merged_;  // scratch of mergeNeighbours
   void selectQueries(const FeatureFrame& prev, const std::vector<int>* priority);
 
+  int recip_bin_size_ = 0;  // bin size that bin_recip_ divides by
+  std::uint64_t bin_recip_ = 0;
   std::vector<int> reverse_;               // memo of cur -> prev searches
+  std::vector<int> sparse_reverse_;        // memo of prev -> cur searches of the sparse pass
+  std::vector<int> slot_of_cur_;           // dense match of each current feature (-1: none)
+  std::vector<Match> match_buffer_;        // dense matches in query order
   std::vector<int> queries_;               // previous features searched for in the dense pass
   std::vector<int> group_;                 // scratch of selectQueries
   FeatureFrame prev_sparse_, cur_sparse_;  // sparse features only

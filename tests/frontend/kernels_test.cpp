@@ -1,9 +1,11 @@
-// The SIMD kernels against their plain definitions: the windowed best-SAD search and the 3x3 SSD
-// block of the sub-pixel refinement.
+// The SIMD kernels against their plain definitions: the windowed best-SAD search (one bin range,
+// and every bin a window overlaps), the bin index by reciprocal and the 3x3 SSD block of the
+// sub-pixel refinement.
 #include "frontend/kernels.hpp"
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstdint>
 #include <limits>
 #include <random>
@@ -65,6 +67,65 @@ TEST(Kernels, SearchBestEqualsTheBruteForceDefinition) {
     Best got;
     kernels::searchBest(query, descs.data(), us.data(), vs.data(), begin, end, cu - half, cu + half,
                         cv - half, cv + half, &got.index, &got.cost, &got.second);
+    ASSERT_EQ(got.index, want.index) << trial;
+    ASSERT_EQ(got.cost, want.cost) << trial;
+    ASSERT_EQ(got.second, want.second) << trial;
+  }
+}
+
+TEST(Kernels, BinIndexEqualsIntegerDivision) {
+  for (const int bin : {1, 2, 3, 7, 25, 49, 50, 51, 64, 100, 333, 1000, 9999, 10000, 65535}) {
+    const std::uint64_t recip = kernels::binReciprocal(bin);
+    for (int x = 0; x < (1 << 16); ++x) ASSERT_EQ(kernels::binIndex(x, recip), x / bin) << bin;
+  }
+}
+
+TEST(Kernels, SearchWindowEqualsTheBruteForceSearchOverItsClass) {
+  std::mt19937 rng(17);
+  std::uniform_int_distribution<int> byte(100, 104), cls_of(0, 3), u_of(0, 219), v_of(0, 159);
+  // Features of a 220 x 160 image on 50 px bins, ordered by (class, bin row, bin column).
+  const int n = 600, bin = 50, bins_u = 5, bins_v = 4;
+  struct Raw {
+    int key, u, v;
+  };
+  std::vector<Raw> raw(n);
+  for (auto& r : raw) {
+    r.u = u_of(rng), r.v = v_of(rng);
+    r.key = (cls_of(rng) * bins_v + r.v / bin) * bins_u + r.u / bin;
+  }
+  std::stable_sort(raw.begin(), raw.end(),
+                   [](const Raw& a, const Raw& b) { return a.key < b.key; });
+  std::vector<std::uint8_t> descs(32 * n);
+  for (auto& d : descs) d = static_cast<std::uint8_t>(byte(rng));
+  std::vector<std::int16_t> us(n), vs(n);
+  std::vector<int> begin(4 * bins_u * bins_v + 1, n);
+  for (int i = n - 1; i >= 0; --i) {
+    us[i] = static_cast<std::int16_t>(raw[i].u);
+    vs[i] = static_cast<std::int16_t>(raw[i].v);
+    for (int k = 0; k <= raw[i].key; ++k) begin[k] = std::min(begin[k], i);
+  }
+  kernels::SearchGrid grid;
+  grid.descs = descs.data();
+  grid.us = us.data();
+  grid.vs = vs.data();
+  grid.bin_begin = begin.data();
+  grid.bins_u = bins_u;
+  grid.bins_v = bins_v;
+  grid.bin_size = bin;
+  grid.width = 220;
+  grid.height = 160;
+  grid.bin_recip = kernels::binReciprocal(bin);
+  std::uniform_int_distribution<int> centre_u(-20, 240), centre_v(-20, 180), half_of(0, 120);
+  for (int trial = 0; trial < 2000; ++trial) {
+    std::uint8_t query[32];
+    for (auto& q : query) q = static_cast<std::uint8_t>(byte(rng));
+    const int cls = trial % 4, cu = centre_u(rng), cv = centre_v(rng), half = half_of(rng);
+    const int first = begin[cls * bins_u * bins_v], last = begin[(cls + 1) * bins_u * bins_v];
+    const Best want =
+        bruteForce(query, descs, us, vs, first, last, cu - half, cu + half, cv - half, cv + half);
+    Best got;
+    kernels::searchWindow(query, grid, cls, cu - half, cu + half, cv - half, cv + half, &got.index,
+                          &got.cost, &got.second);
     ASSERT_EQ(got.index, want.index) << trial;
     ASSERT_EQ(got.cost, want.cost) << trial;
     ASSERT_EQ(got.second, want.second) << trial;
