@@ -77,12 +77,19 @@ std::vector<TrackObservation> selectSpread(const std::vector<TrackObservation>& 
 WindowCore::WindowCore(const SensorSetup& setup, const WindowOptions& options,
                        const frontend::RelativePoseOptions& relpose_options,
                        const GroundPlaneOptions& ground_options)
-    : setup_(setup), options_(options), ground_options_(ground_options) {
+    : setup_(setup),
+      options_(options),
+      ground_options_(ground_options),
+      still_bias_(setup.gyro_noise_density,
+                  options.gyro_bias_random_walk > 0.0 ? options.gyro_bias_random_walk
+                                                      : setup.gyro_bias_random_walk,
+                  options.standstill_trim_s) {
   const double pixel_sigma = options.pixel_sigma > 0.0 ? options.pixel_sigma : setup.pixel_sigma;
   model_.T_B_C = setup.T_B_C;
   model_.T_B_L = setup.T_B_L;
   model_.bearing_sigma_rad = pixel_sigma / camera::focalPx(setup.camera);
   model_.bearing_huber = options.bearing_huber_sigmas;
+  model_.bearing_creep_rad = options.track_creep_px / camera::focalPx(setup.camera);
   model_.lidar_sigma_m =
       options.lidar_range_sigma_m > 0.0 ? options.lidar_range_sigma_m : setup.lidar_range_sigma_m;
   model_.lidar_huber = options.lidar_huber_sigmas;
@@ -285,6 +292,8 @@ FrameEstimate WindowCore::processFrame(const VisualFrame& frame_in) {
   const bool standstill =
       !frame.observations.empty() && flow < options_.standstill_flow_px && gyro_quiet;
 
+  // The first moving frame after still ones closes the standstill's zero-rate update.
+  if (!standstill && still_bias_.inStreak()) endStandstill(frame.t_ns);
   int ref_kf = -1;
   if (standstill) {
     e.T_W_B = last_T_W_B_;
@@ -293,18 +302,17 @@ FrameEstimate WindowCore::processFrame(const VisualFrame& frame_in) {
     velocity_W_.setZero();
     if (initialized_ && !map_.empty()) ref_kf = map_.keyframes.back()->id;
     if (initialized_) still_reference_ = makeReference(frame, e.T_W_B);
+    // Zero-rate update: the raw gyro rotation of a still frame is bias * dt plus noise.
+    if (auto pi0 = preintegrate(last_t_, frame.t_ns, Vec3::Zero());
+        pi0 && pi0->status() == factors::GyroPreintegration::Status::kOk) {
+      still_bias_.add(frame.t_ns, so3::log(pi0->deltaR()), dt);
+      if (!initialized_)
+        if (auto z = still_bias_.estimate(options_.standstill_min_bias_s)) bias_ = z->bias_radps;
+    }
     if (!initialized_) {
       // Held before initialisation: the pose is known, and the two-view reference moves to
       // the last still frame so that no translation is lost when the robot starts.
       e.tracked = true;
-      // Zero-rate update: the raw gyro rotation of a still frame is bias * dt plus noise.
-      if (auto pi0 = preintegrate(last_t_, frame.t_ns, Vec3::Zero());
-          pi0 && pi0->status() == factors::GyroPreintegration::Status::kOk) {
-        still_rotation_ += so3::log(pi0->deltaR());
-        still_time_s_ += dt;
-        if (still_time_s_ >= options_.standstill_min_bias_s)
-          bias_ = still_rotation_ / still_time_s_;
-      }
       if (!use_lidar_ || scanAt(frame.t_ns) != nullptr) startReference(frame, e.T_W_B);
     }
   } else if (!initialized_) {
@@ -741,6 +749,32 @@ void WindowCore::marginalize() {
   }
 }
 
+void WindowCore::endStandstill(Timestamp t_ns) {
+  still_bias_.endStreak();
+  if (!initialized_) {  // the streaks before initialisation add up
+    if (auto z = still_bias_.estimate(options_.standstill_min_bias_s)) bias_ = z->bias_radps;
+    return;
+  }
+  const auto z = still_bias_.estimate(options_.standstill_min_bias_s);
+  still_bias_.reset();
+  if (!z || map_.empty() || !use_gyro_) return;
+  Keyframe& kf = *map_.keyframes.back();
+  // The bias walks between the keyframe and the end of the standstill.
+  const double walk_s = std::max(0.0, toSeconds(t_ns - kf.t_ns));
+  const double sigma = std::sqrt(z->sigma_radps * z->sigma_radps +
+                                 model_.bias_random_walk * model_.bias_random_walk * walk_s);
+  if (kf.zero_rate) {  // a second standstill before the next keyframe: both, by information
+    const double w0 = 1.0 / (kf.zero_rate->sigma_radps * kf.zero_rate->sigma_radps);
+    const double w1 = 1.0 / (sigma * sigma);
+    kf.zero_rate->bias_radps = (w0 * kf.zero_rate->bias_radps + w1 * z->bias_radps) / (w0 + w1);
+    kf.zero_rate->sigma_radps = 1.0 / std::sqrt(w0 + w1);
+  } else {
+    kf.zero_rate = Keyframe::ZeroRate{z->bias_radps, sigma};
+  }
+  recent_zero_rate_ = {t_ns, *z};
+  note("standstill: gyro bias from its mean rate (zero-rate factor on the last keyframe)");
+}
+
 void WindowCore::resetWindow() {
   if (!map_.empty()) carried_bias_ = {map_.keyframes.back()->t_ns, map_.keyframes.back()->bias()};
   map_.rememberPoints(setup_.T_B_C);
@@ -927,6 +961,38 @@ bool WindowCore::tryInitialize(const VisualFrame& frame, const SE3& T_W_B_pred,
   T_C1_C0.translation() = *scale * tv->t_C1_C0;
   const SE3 T_W_B1 = ref.T_W_B * setup_.T_B_C * T_C1_C0.inverse() * setup_.T_B_C.inverse();
 
+  // The first keyframe's bias prior: a standstill before this initialisation (its mean rate),
+  // a recent one before a restart, or the previous segment's estimate after a loss (whichever
+  // is the tighter); else the loose first-start prior around the current bias.
+  double bias_sigma_radps = -1.0;
+  const char* bias_note = nullptr;
+  if (auto still = still_bias_.estimate(options_.standstill_min_bias_s)) {
+    bias_ = still->bias_radps;
+    bias_sigma_radps = still->sigma_radps;
+    bias_note = "standstill before initialisation: gyro bias from its mean rate (zero-rate update)";
+  } else {
+    if (carried_bias_) {
+      // A new segment after a loss: the bias has only walked since the last segment's keyframe.
+      const double dt_s = std::max(0.0, toSeconds(ref.t_ns - carried_bias_->first));
+      const double sigma = options_.reinit_bias_sigma_radps;
+      bias_ = carried_bias_->second;
+      bias_sigma_radps =
+          std::sqrt(sigma * sigma + model_.bias_random_walk * model_.bias_random_walk * dt_s);
+      bias_note =
+          "re-initialised after a loss: the gyro bias carried over from the previous segment";
+    }
+    if (recent_zero_rate_) {
+      const double dt_s = std::abs(toSeconds(ref.t_ns - recent_zero_rate_->first));
+      const double s0 = recent_zero_rate_->second.sigma_radps;
+      const double sigma =
+          std::sqrt(s0 * s0 + model_.bias_random_walk * model_.bias_random_walk * dt_s);
+      if (bias_sigma_radps <= 0.0 || sigma < bias_sigma_radps) {
+        bias_ = recent_zero_rate_->second.bias_radps;
+        bias_sigma_radps = sigma;
+        bias_note = "re-initialised after a standstill: the gyro bias from its mean rate";
+      }
+    }
+  }
   std::unordered_map<TrackId, TrackObservation> keep1;
   for (const auto& o : frame.observations)
     if (ref.obs.count(o.track_id)) keep1[o.track_id] = o;
@@ -946,25 +1012,12 @@ bool WindowCore::tryInitialize(const VisualFrame& frame, const SE3& T_W_B_pred,
   gauge_.kf_id = kf0->id;
   gauge_.T_W_B = ref.T_W_B;
   gauge_.b_g = bias_;
-  if (still_time_s_ >= options_.standstill_min_bias_s) {
-    // Mean of white noise over T: sigma = noise density / sqrt(T); plus the walk during T.
-    gauge_.b_g_sigma_radps =
-        std::sqrt(setup_.gyro_noise_density * setup_.gyro_noise_density / still_time_s_ +
-                  setup_.gyro_bias_random_walk * setup_.gyro_bias_random_walk * still_time_s_);
-    note("standstill before initialisation: gyro bias from its mean rate (zero-rate update)");
-    if (!still_gauge_) still_gauge_ = gauge_;
-  } else if (carried_bias_) {
-    // A new segment after a loss: the bias has only walked since the last segment's keyframe.
-    gauge_.b_g = carried_bias_->second;
-    const double dt_s = std::max(0.0, toSeconds(ref.t_ns - carried_bias_->first));
-    const double sigma = options_.reinit_bias_sigma_radps;
-    gauge_.b_g_sigma_radps = std::sqrt(sigma * sigma + setup_.gyro_bias_random_walk *
-                                                           setup_.gyro_bias_random_walk * dt_s);
-    note("re-initialised after a loss: the gyro bias carried over from the previous segment");
-  }
+  gauge_.b_g_sigma_radps = bias_sigma_radps;
+  if (bias_note) note(bias_note);
+  if (!still_gauge_ && still_bias_.estimate(options_.standstill_min_bias_s)) still_gauge_ = gauge_;
   carried_bias_.reset();
-  still_rotation_.setZero();
-  still_time_s_ = 0.0;
+  recent_zero_rate_.reset();
+  still_bias_.reset();
   associateLidar(*kf0, true);
   associateLidar(*kf1, true);
   initialized_ = true;

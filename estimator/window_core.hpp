@@ -59,6 +59,8 @@ class WindowCore {
   bool initialized() const { return initialized_; }
   const WindowMap& map() const { return map_; }
   const WindowSolveInfo& lastSolve() const { return last_solve_; }
+  /// What holds the window's gauge now (first-keyframe priors or the marginalisation prior).
+  const WindowGauge& gauge() const { return gauge_; }
   const WindowOptions& options() const { return options_; }
   /// Pose of a keyframe now (window or archive), nullopt when unknown.
   std::optional<SE3> keyframePose(int kf_id) const;
@@ -134,10 +136,16 @@ class WindowCore {
   std::unordered_map<TrackId, TrackObservation> last_obs_;
   int lost_frames_ = 0;
 
-  // Standstill before initialisation: the mean gyro rate measures the bias (zero-rate update).
-  Vec3 still_rotation_ = Vec3::Zero();  // summed rotation vectors of the still frames (raw), rad
-  double still_time_s_ = 0.0;           // their duration, s
+  // Standstills: their mean gyro rate measures the bias (zero-rate update). Before
+  // initialisation the still frames of every streak add up to the first keyframe's bias prior;
+  // after it each streak gives a zero-rate factor on the last keyframe when it ends.
+  StandstillBias still_bias_;
   std::optional<WindowGauge> still_gauge_;  // the first keyframe's bias prior from it (refine)
+  // The last zero-rate update while initialised, and when its streak ended: the bias prior of
+  // a segment that starts soon after it (e.g. the restart from the last still frame).
+  std::optional<std::pair<Timestamp, StandstillBias::Estimate>> recent_zero_rate_;
+  /// The first moving frame after still ones (at t_ns): closes the streak.
+  void endStandstill(Timestamp t_ns);
 
   // Initialisation reference.
   struct Reference {

@@ -57,6 +57,13 @@ struct Keyframe {
   std::unordered_set<TrackId> lidar_rejected;      // associations removed as outliers: not again
   std::optional<LidarScan> scan;
   int segment = 0;  // increases at every re-initialisation after a tracking loss
+  /// Zero-rate update from a standstill after this keyframe: the bias measured as the mean gyro
+  /// rate of the still frames (a bias prior factor while the keyframe is in the window).
+  struct ZeroRate {
+    Vec3 bias_radps = Vec3::Zero();
+    double sigma_radps = 1.0;  // per axis
+  };
+  std::optional<ZeroRate> zero_rate;
 
   SE3 pose() const;
   void setPose(const SE3& T_W_B);

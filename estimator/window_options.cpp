@@ -76,6 +76,8 @@ WindowOptions readWindowOptions(const Config& c) {
       c.getInRange(p + "standstill_gyro_radps", o.standstill_gyro_radps, 0.0, 10.0);
   o.standstill_min_bias_s =
       c.getInRange(p + "standstill_min_bias_s", o.standstill_min_bias_s, 0.0, 100.0);
+  o.track_creep_px = c.getInRange(p + "track_creep_px", o.track_creep_px, 0.0, 100.0);
+  o.standstill_trim_s = c.getInRange(p + "standstill_trim_s", o.standstill_trim_s, 0.0, 100.0);
 
   o.velocity_decay_per_s =
       c.getInRange(p + "velocity_decay_per_s", o.velocity_decay_per_s, 0.0, 1.0);

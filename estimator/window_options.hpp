@@ -35,8 +35,11 @@ struct WindowOptions {
                                            // after a solve is removed, deg
 
   // Noise and losses.
-  double pixel_sigma = -1.0;                  // image noise, px; < 0: the rig's value
-  double bearing_huber_sigmas = 2.0;          // Huber loss threshold, in units of the bearing sigma
+  double pixel_sigma = -1.0;          // image noise, px; < 0: the rig's value
+  double bearing_huber_sigmas = 2.0;  // Huber loss threshold, in units of the bearing sigma
+  double track_creep_px = 0.2;        // a track's random walk, px per sqrt(frame) (measured on the
+                                // simulated rows: 0.38 px after 1 frame, 0.9 after 10, 1.8 after
+                                // 40): added to the bearing sigma between anchor and observation
   double lidar_range_sigma_m = -1.0;          // LiDAR range noise, m; < 0: the rig's value
   double lidar_huber_sigmas = 2.0;            // robust loss threshold of LiDAR factors, sigmas
   double gyro_bias_random_walk = -1.0;        // rad/s^2/sqrt(Hz); < 0: the rig's value
@@ -82,8 +85,11 @@ struct WindowOptions {
   // Standstill.
   double standstill_flow_px = 0.3;      // median flow to the previous frame below this ...
   double standstill_gyro_radps = 0.02;  // ... and |w - b_g| below this: standstill
-  double standstill_min_bias_s = 0.25;  // standstill before initialisation this long: its mean
-                                        // gyro rate is the bias (prior on the first keyframe), s
+  double standstill_min_bias_s = 0.25;  // standstill this long: its mean gyro rate is the bias
+                                        // (prior on the first keyframe before initialisation, a
+                                        // zero-rate factor on the last keyframe after), s
+  double standstill_trim_s = 0.3;       // the last still frames before the motion was seen are
+                                        // left out of that mean (they hold its start), s
 
   // Tracking loss.
   double velocity_decay_per_s = 0.5;  // constant-velocity decay while lost (fraction kept per s)

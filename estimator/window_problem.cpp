@@ -57,8 +57,18 @@ std::vector<FactorSpec> buildFactors(const std::vector<Keyframe*>& keyframes,
       if (kf == anchor) continue;
       auto obs = kf->observations.find(id);
       if (obs == kf->observations.end()) continue;
+      // Tracks creep (a random walk of the sub-pixel position per frame): the error between the
+      // anchor's and this observation grows with the frames between them.
+      double sigma_rad = model.bearing_sigma_rad;
+      if (model.bearing_creep_rad > 0.0) {
+        auto a = anchor->observations.find(id);
+        const int frames =
+            a == anchor->observations.end() ? 0 : std::max(0, obs->second.age - a->second.age);
+        sigma_rad = std::sqrt(sigma_rad * sigma_rad +
+                              model.bearing_creep_rad * model.bearing_creep_rad * frames);
+      }
       auto cost = std::make_unique<factors::BearingFactor>(
-          lm.bearing_anchor_C, obs->second.bearing_C, model.T_B_C, model.bearing_sigma_rad);
+          lm.bearing_anchor_C, obs->second.bearing_C, model.T_B_C, sigma_rad);
       const auto u =
           cost->predictedBearing(anchor->q_W_B, anchor->p_W_B, kf->q_W_B, kf->p_W_B, lm.rho[0]);
       if (!u || u->dot(obs->second.bearing_C) < std::cos(0.2)) continue;  // gross: > 11 deg
@@ -136,6 +146,18 @@ std::vector<FactorSpec> buildFactors(const std::vector<Keyframe*>& keyframes,
       w.blocks = {i->b_g, j->b_g};
       w.kf_id = j->id;
       out.push_back(std::move(w));
+    }
+  }
+  if (model.use_gyro) {
+    for (Keyframe* kf : keyframes) {
+      if (!kf->zero_rate) continue;
+      FactorSpec z;
+      z.kind = FactorKind::kBiasPrior;
+      z.cost =
+          std::make_unique<BiasPriorFactor>(kf->zero_rate->bias_radps, kf->zero_rate->sigma_radps);
+      z.blocks = {kf->b_g};
+      z.kf_id = kf->id;
+      out.push_back(std::move(z));
     }
   }
 

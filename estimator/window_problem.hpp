@@ -23,6 +23,7 @@ struct WindowModel {
   SE3 T_B_L = SE3::Identity();
   double bearing_sigma_rad = 0.5 / 305.0;  // pixel sigma / focal px
   double bearing_huber = 2.0;              // Huber threshold on the whitened residual (sigmas)
+  double bearing_creep_rad = 0.0;  // track creep per sqrt(frame) between anchor and observation
   double lidar_sigma_m = 0.02;
   double lidar_huber = 2.0;          // robust loss threshold on the whitened residual (sigmas)
   bool lidar_cauchy = false;         // Cauchy (an association far off pulls ever less), else Huber
