@@ -93,6 +93,7 @@ struct SearchGrid {
   const std::int16_t* us = nullptr;
   const std::int16_t* vs = nullptr;
   const int* bin_begin = nullptr;
+  int size = 0;  // features (descriptors readable at indices [0, size))
   int bins_u = 0, bins_v = 0;
   int bin_size = 1;             // pixels per bin (< 2^16)
   int width = 0, height = 0;    // pixels
@@ -109,8 +110,8 @@ inline int binIndex(int x, std::uint64_t bin_recip) {
 }
 
 /// searchBest over the features of class `cls` of every bin overlapping the window
-/// [u0, u1] x [v0, v1] (clipped to the image), bin rows in ascending order. *best_index = -1 and
-/// costs UINT32_MAX when nothing lies inside.
+/// [u0, u1] x [v0, v1] (clipped to the image): lowest SAD, lowest index on ties, second = lowest
+/// cost of the others. *best_index = -1 and costs UINT32_MAX when nothing lies inside.
 void searchWindow(const std::uint8_t* query, const SearchGrid& grid, int cls, int u0, int u1,
                   int v0, int v1, int* best_index, std::uint32_t* best_cost,
                   std::uint32_t* second_cost);

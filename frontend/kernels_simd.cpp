@@ -1,6 +1,6 @@
 // Kernels of kernels.hpp. Written as simple row loops over int16 row buffers so that the compiler
 // vectorises them for the native ISA (this file gets OVO_KERNEL_FLAGS); descriptor costs use
-// SSE2 / AVX2 SAD instructions.
+// SSE2 / AVX2 / AVX-512 SAD instructions, and AVX-512 paths where noted.
 // GCC 12 warns inside its own AVX-512 headers (the _mm512_undefined_* placeholders of unmasked
 // intrinsics, GCC bug 105593); the warnings point at the header, so silence them there.
 #pragma GCC diagnostic push
@@ -40,8 +40,13 @@ inline std::uint32_t sadInline(const std::uint8_t* a, const std::uint8_t* b) {
 }
 
 #if defined(__AVX512BW__)
-// Candidates inside the window (of 16) from which searchBest computes all 16 SADs at once.
-constexpr int kMinVectorSad = 6;
+// Candidates inside the window (of 16) from which searchBest and searchWindow compute all 16 SADs
+// at once.
+constexpr int kMinVectorSad = 4;
+// searchWindow: in windows of at least this area (px^2, e.g. the sparse pass's full windows) every
+// group of 16 with a candidate inside gets the 16 SADs at once (fewer mispredicted branches); in
+// the dense pass's small windows, few candidates are scored one by one.
+constexpr int kLargeWindowArea = 4096;
 
 // SADs of the 16 consecutive 32-byte descriptors at descs against the query held twice in
 // query2, lane k for descriptor k. vpsadbw leaves four partial sums per descriptor (one per 8
@@ -462,9 +467,76 @@ void describe(const std::uint8_t* du, const std::uint8_t* dv, int width, int u, 
   }
 }
 
+#if defined(__AVX512BW__)
+namespace {
+
+// The rows of the 13 x 13 patch around a refinement position: patch row R (image row v - 6 + R)
+// as 16 (du, dv) int16 pairs for the columns u - 6 .. u + 9 (the last three unused, zero).
+inline void loadPatchRows(const std::uint8_t* du, const std::uint8_t* dv, int width, int u, int v,
+                          __m512i* rows) {
+  const __mmask16 cols = 0x1fff;  // 13 bytes: no read beyond u + 6
+  for (int r = 0; r < 13; ++r) {
+    const std::ptrdiff_t i = static_cast<std::ptrdiff_t>(v - 6 + r) * width + u - 6;
+    const __m128i a = _mm_maskz_loadu_epi8(cols, du + i), b = _mm_maskz_loadu_epi8(cols, dv + i);
+    rows[r] =
+        _mm512_cvtepu8_epi16(_mm256_set_m128i(_mm_unpackhi_epi8(a, b), _mm_unpacklo_epi8(a, b)));
+  }
+}
+
+constexpr bool patternFitsSevenColumns() {
+  for (int k = 0; k < 16; ++k) {
+    const int du = kPatternDu[k], dv = kPatternDv[k];
+    if (du != -5 && du != -3 && du != -1 && du != 0 && du != 1 && du != 3 && du != 5) return false;
+    if (dv < -5 || dv > 5) return false;
+  }
+  return true;
+}
+static_assert(patternFitsSevenColumns(), "ssdAround's column groups miss a descriptor sample");
+
+// Adds the SSD terms of the samples with column offset kDu to total[row] (lane c for the block
+// column c - 1): per block row, madd of the (du, dv) differences gives one dword per patch column;
+// the group's sum is shifted down by kDu + 5 lanes to bring column u + kDu - 1 to lane 0.
+template <int kDu>
+inline void addSampleColumn(const __m512i* rows, const __m512i ref_pairs, __m512i* total) {
+  __m512i sum[3] = {_mm512_setzero_si512(), _mm512_setzero_si512(), _mm512_setzero_si512()};
+#pragma GCC unroll 16
+  for (int k = 0; k < 16; ++k) {
+    if (kPatternDu[k] != kDu) continue;
+    const __m512i pair = _mm512_permutexvar_epi32(_mm512_set1_epi32(k), ref_pairs);
+    for (int row = 0; row < 3; ++row) {
+      const __m512i d = _mm512_sub_epi16(rows[kPatternDv[k] + row + 5], pair);
+      sum[row] = _mm512_add_epi32(sum[row], _mm512_madd_epi16(d, d));
+    }
+  }
+  for (int row = 0; row < 3; ++row) {
+    total[row] = _mm512_add_epi32(total[row],
+                                  _mm512_alignr_epi32(_mm512_setzero_si512(), sum[row], kDu + 5));
+  }
+}
+
+}  // namespace
+#endif
+
 void ssdAround(const std::uint8_t* du, const std::uint8_t* dv, int width, int u, int v,
                const std::uint8_t* ref, std::uint32_t* out) {
-#if defined(__SSE4_1__)
+#if defined(__AVX512BW__)
+  __m512i rows[13];
+  loadPatchRows(du, dv, width, u, v, rows);
+  // Dword k: the reference's (du, dv) pair of sample k as two int16.
+  const __m512i ref_pairs =
+      _mm512_cvtepu8_epi16(_mm256_loadu_si256(reinterpret_cast<const __m256i*>(ref)));
+  __m512i total[3] = {_mm512_setzero_si512(), _mm512_setzero_si512(), _mm512_setzero_si512()};
+  addSampleColumn<-5>(rows, ref_pairs, total);
+  addSampleColumn<-3>(rows, ref_pairs, total);
+  addSampleColumn<-1>(rows, ref_pairs, total);
+  addSampleColumn<0>(rows, ref_pairs, total);
+  addSampleColumn<1>(rows, ref_pairs, total);
+  addSampleColumn<3>(rows, ref_pairs, total);
+  addSampleColumn<5>(rows, ref_pairs, total);
+  for (int row = 0; row < 3; ++row) {
+    _mm_mask_storeu_epi32(out + 3 * row, 0x7, _mm512_castsi512_si128(total[row]));
+  }
+#elif defined(__SSE4_1__)
   // Per sample and row: the du / dv bytes of the three columns interleaved and widened to int16,
   // minus the reference pair, squared and pair-summed by madd: lane j holds column j - 1.
   __m128i acc[3] = {_mm_setzero_si128(), _mm_setzero_si128(), _mm_setzero_si128()};
@@ -599,6 +671,97 @@ void searchBest(const std::uint8_t* query, const std::uint8_t* descs, const std:
   *second_cost = second;
 }
 
+#if defined(__AVX512BW__)
+namespace {
+
+// The lowest and second-lowest (cost << 32 | index) keys of a window's candidates: per lane of
+// `lane1` / `lane2` for the SADs computed 16 at a time, and in `one1` / `one2` for candidates
+// scored one by one; reduced once per window. A key orders by cost, then by index (the tie rule).
+struct WindowMins {
+  __m512i lane1 = _mm512_set1_epi64(-1), lane2 = _mm512_set1_epi64(-1);
+  std::uint64_t one1 = ~std::uint64_t{0}, one2 = ~std::uint64_t{0};
+  bool any_lanes = false;
+
+  void add(std::uint64_t key) {  // without branches: their outcome is unpredictable
+    one2 = std::min(one2, std::max(one1, key));
+    one1 = std::min(one1, key);
+  }
+  void addLanes(__m512i keys) {
+    const __m512i larger = _mm512_max_epu64(lane1, keys);
+    lane1 = _mm512_min_epu64(lane1, keys);
+    lane2 = _mm512_min_epu64(lane2, larger);
+  }
+  // Lowest and second-lowest key overall.
+  void reduce(std::uint64_t* first, std::uint64_t* second) const {
+    if (!any_lanes) {
+      *first = one1;
+      *second = one2;
+      return;
+    }
+    const std::uint64_t m1 = _mm512_reduce_min_epu64(lane1);
+    const __mmask8 at =
+        _mm512_cmpeq_epu64_mask(lane1, _mm512_set1_epi64(static_cast<long long>(m1)));
+    const std::uint64_t m2 = std::min(
+        _mm512_reduce_min_epu64(lane2),
+        _mm512_reduce_min_epu64(_mm512_mask_blend_epi64(at, lane1, _mm512_set1_epi64(-1))));
+    if (m1 < one1) {
+      *first = m1;
+      *second = std::min(m2, one1);
+    } else {
+      *first = one1;
+      *second = std::min(m1, one2);
+    }
+  }
+};
+
+// Adds the candidates i in [begin, end) inside [u0, u1] x [v0, v1] to *mins; descriptors are
+// readable up to index `readable` (exclusive); groups of 16 with at least `min_vector` inside get
+// their SADs at once.
+inline __attribute__((always_inline)) void scanRange(const std::uint8_t* query,
+                                                     const __m512i query2, const SearchGrid& grid,
+                                                     int begin, int end, int readable,
+                                                     int min_vector, const __m512i lo_u,
+                                                     const __m512i hi_u, const __m512i lo_v,
+                                                     const __m512i hi_v, WindowMins* mins) {
+  const __m512i iota = _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
+  for (int i = begin; i < end; i += 32) {
+    const int n = std::min(32, end - i);
+    const __mmask32 tail = n == 32 ? ~__mmask32{0} : (__mmask32{1} << n) - 1;
+    const __m512i u = _mm512_maskz_loadu_epi16(tail, grid.us + i);
+    const __m512i v = _mm512_maskz_loadu_epi16(tail, grid.vs + i);
+    const std::uint32_t inside =
+        _mm512_mask_cmpge_epi16_mask(tail, u, lo_u) & _mm512_cmple_epi16_mask(u, hi_u) &
+        _mm512_cmpge_epi16_mask(v, lo_v) & _mm512_cmple_epi16_mask(v, hi_v);
+    for (int half = 0; half < 2; ++half) {
+      const int first = i + 16 * half;
+      std::uint32_t bits = (inside >> (16 * half)) & 0xffffu;
+      if (bits == 0) continue;
+      if (first + 16 > readable || __builtin_popcount(bits) < min_vector) {
+        while (bits) {
+          const int k = first + __builtin_ctz(bits);
+          bits &= bits - 1;
+          const std::uint32_t c =
+              sadInline(query, grid.descs + static_cast<std::ptrdiff_t>(k) * kDescriptorBytes);
+          mins->add((std::uint64_t{c} << 32) | static_cast<std::uint32_t>(k));
+        }
+        continue;
+      }
+      // Outside lanes cost UINT32_MAX, which no SAD reaches. The (index, cost) dword pairs of
+      // unpacklo / unpackhi are the keys of lanes {0, 1, 4, 5, ...} / {2, 3, 6, 7, ...}.
+      const __m512i costs = _mm512_mask_blend_epi32(
+          static_cast<__mmask16>(bits), _mm512_set1_epi32(-1),
+          sad16(query2, grid.descs + static_cast<std::ptrdiff_t>(first) * kDescriptorBytes));
+      const __m512i index = _mm512_add_epi32(_mm512_set1_epi32(first), iota);
+      mins->addLanes(_mm512_unpacklo_epi32(index, costs));
+      mins->addLanes(_mm512_unpackhi_epi32(index, costs));
+      mins->any_lanes = true;
+    }
+  }
+}
+
+}  // namespace
+#endif
+
 void searchWindow(const std::uint8_t* query, const SearchGrid& grid, int cls, int u0, int u1,
                   int v0, int v1, int* best_index, std::uint32_t* best_cost,
                   std::uint32_t* second_cost) {
@@ -613,11 +776,32 @@ void searchWindow(const std::uint8_t* query, const SearchGrid& grid, int cls, in
   const auto binOf = [&](int x) { return binIndex(x, grid.bin_recip); };
   const int col0 = binOf(u0), col1 = std::min(binOf(u1), grid.bins_u - 1);
   const int row0 = binOf(v0), row1 = std::min(binOf(v1), grid.bins_v - 1);
+#if defined(__AVX512BW__)
+  const __m512i lo_u = _mm512_set1_epi16(static_cast<std::int16_t>(u0));
+  const __m512i hi_u = _mm512_set1_epi16(static_cast<std::int16_t>(u1));
+  const __m512i lo_v = _mm512_set1_epi16(static_cast<std::int16_t>(v0));
+  const __m512i hi_v = _mm512_set1_epi16(static_cast<std::int16_t>(v1));
+  const __m512i query2 =
+      _mm512_broadcast_i64x4(_mm256_loadu_si256(reinterpret_cast<const __m256i*>(query)));
+  const int min_vector = (u1 - u0 + 1) * (v1 - v0 + 1) >= kLargeWindowArea ? 1 : kMinVectorSad;
+  WindowMins mins;
+  for (int row = row0; row <= row1; ++row) {
+    const int* first = grid.bin_begin + (cls * grid.bins_v + row) * grid.bins_u;
+    scanRange(query, query2, grid, first[col0], first[col1 + 1], grid.size, min_vector, lo_u, hi_u,
+              lo_v, hi_v, &mins);
+  }
+  std::uint64_t first = 0, second = 0;
+  mins.reduce(&first, &second);
+  *best_cost = static_cast<std::uint32_t>(first >> 32);
+  *second_cost = static_cast<std::uint32_t>(second >> 32);
+  if (*best_cost != ~std::uint32_t{0}) *best_index = static_cast<int>(first & 0xffffffffu);
+#else
   for (int row = row0; row <= row1; ++row) {
     const int* first = grid.bin_begin + (cls * grid.bins_v + row) * grid.bins_u;
     searchBest(query, grid.descs, grid.us, grid.vs, first[col0], first[col1 + 1], u0, u1, v0, v1,
                best_index, best_cost, second_cost);
   }
+#endif
 }
 
 }  // namespace ovo::frontend::kernels

@@ -83,6 +83,7 @@ kernels::SearchGrid searchGrid(const FeatureFrame& frame) {
   g.us = frame.us.data();
   g.vs = frame.vs.data();
   g.bin_begin = frame.bin_begin.data();
+  g.size = frame.size();
   g.bins_u = frame.bins_u;
   g.bins_v = frame.bins_v;
   g.bin_size = frame.bin_size;
@@ -177,59 +178,59 @@ std::optional<Vec2> Matcher::refineCost(const FeatureFrame& prev, int p, const F
   // Positions whose descriptor lies inside the filtered area.
   const int lo = kernels::kDescriptorRadius + kernels::kFilterBorder;
   const int u_hi = filters.width - 1 - lo, v_hi = filters.height - 1 - lo;
-  // SSD of the 3x3 neighbourhood, [dv + 1][du + 1]; positions outside the area cost "infinity".
-  double around[3][3];
+  // SSD of the 3x3 neighbourhood, index (dv + 1) * 3 + du + 1; kOutside for positions outside the
+  // area (above every SSD: 32 * 255^2 < 2^21).
+  constexpr std::uint32_t kOutside = std::numeric_limits<std::uint32_t>::max();
+  std::uint32_t around[9];
   const auto ssdAround = [&](int u, int v) {
     if (u > lo && v > lo && u < u_hi && v < v_hi) {
-      std::uint32_t ssd[9];
-      kernels::ssdAround(filters.du.data(), filters.dv.data(), filters.width, u, v, ref, ssd);
-      for (int k = 0; k < 9; ++k) around[k / 3][k % 3] = static_cast<double>(ssd[k]);
+      kernels::ssdAround(filters.du.data(), filters.dv.data(), filters.width, u, v, ref, around);
       return;
     }
     std::uint8_t d[kernels::kDescriptorBytes];
-    for (int dv = -1; dv <= 1; ++dv) {
-      for (int du = -1; du <= 1; ++du) {
-        double& x = around[dv + 1][du + 1];
-        x = std::numeric_limits<double>::max();
-        if (u + du < lo || v + dv < lo || u + du > u_hi || v + dv > v_hi) continue;
-        computeDescriptor(filters, u + du, v + dv, d);
-        x = static_cast<double>(kernels::ssd32(ref, d));
-      }
+    for (int k = 0; k < 9; ++k) {
+      const int du = k % 3 - 1, dv = k / 3 - 1;
+      around[k] = kOutside;
+      if (u + du < lo || v + dv < lo || u + du > u_hi || v + dv > v_hi) continue;
+      computeDescriptor(filters, u + du, v + dv, d);
+      around[k] = kernels::ssd32(ref, d);
     }
+  };
+  // kOutside as "infinitely" expensive.
+  const auto cost = [](std::uint32_t x) {
+    return x == kOutside ? std::numeric_limits<double>::max() : static_cast<double>(x);
   };
   // Descend on the SSD over the 8-neighbourhood from the matched feature: a feature detected a
   // little off the true position (typical along edges) moves to the cost minimum.
   int u = f.u, v = f.v;
   ssdAround(u, v);
-  double c = around[1][1];
-  double rise_min = 0.0, rise_max = 0.0;  // SSD increase to the cheapest / dearest neighbour
+  std::uint32_t second = kOutside, worst = 0;  // cheapest / dearest neighbour at the minimum
   for (int step = 0;; ++step) {
-    int best_du = 0, best_dv = 0;
-    double best = c, worst = c, second = std::numeric_limits<double>::max();
-    for (int dv = -1; dv <= 1; ++dv) {
-      for (int du = -1; du <= 1; ++du) {
-        if (du == 0 && dv == 0) continue;
-        const double x = around[dv + 1][du + 1];
-        second = std::min(second, x);
-        worst = std::max(worst, x);
-        if (x < best) best = x, best_du = du, best_dv = dv;
-      }
+    const std::uint32_t c = around[4];
+    int best_k = 4;
+    std::uint32_t best = c;
+    second = kOutside;
+    worst = c;
+    for (int k = 0; k < 9; ++k) {
+      if (k == 4) continue;
+      const std::uint32_t x = around[k];
+      second = std::min(second, x);
+      worst = std::max(worst, x);
+      if (x < best) best = x, best_k = k;
     }
-    rise_min = second - c;
-    rise_max = worst - c;
-    if (best_du == 0 && best_dv == 0) break;
+    if (best_k == 4) break;
     if (step == options_.max_refine_steps) return std::nullopt;
-    u += best_du;
-    v += best_dv;
+    u += best_k % 3 - 1;
+    v += best_k / 3 - 1;
     ssdAround(u, v);
-    c = around[1][1];
   }
   // Response mode reports the feature's own position: it must be the cost minimum.
   if (options_.subpixel == SubpixelMode::kResponse && (u != f.u || v != f.v)) return std::nullopt;
   // Aperture check: along a straight edge the SSD barely rises in one direction.
-  if (rise_min < options_.min_cost_contrast * rise_max) return std::nullopt;
-  const auto ou = parabolaMinimum(around[1][0], c, around[1][2]);
-  const auto ov = parabolaMinimum(around[0][1], c, around[2][1]);
+  const double c = cost(around[4]);
+  if (cost(second) - c < options_.min_cost_contrast * (cost(worst) - c)) return std::nullopt;
+  const auto ou = parabolaMinimum(cost(around[3]), c, cost(around[5]));
+  const auto ov = parabolaMinimum(cost(around[1]), c, cost(around[7]));
   if (!ou || !ov) return std::nullopt;
   return cur.toFull(u + *ou, v + *ov);
 }

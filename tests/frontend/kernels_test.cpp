@@ -109,6 +109,7 @@ TEST(Kernels, SearchWindowEqualsTheBruteForceSearchOverItsClass) {
   grid.us = us.data();
   grid.vs = vs.data();
   grid.bin_begin = begin.data();
+  grid.size = n;
   grid.bins_u = bins_u;
   grid.bins_v = bins_v;
   grid.bin_size = bin;
@@ -129,6 +130,61 @@ TEST(Kernels, SearchWindowEqualsTheBruteForceSearchOverItsClass) {
     ASSERT_EQ(got.index, want.index) << trial;
     ASSERT_EQ(got.cost, want.cost) << trial;
     ASSERT_EQ(got.second, want.second) << trial;
+  }
+}
+
+// Equal descriptors: every candidate costs the same, so the best is the lowest index inside the
+// window and the second-best cost equals the best (if two lie inside), for windows from one pixel
+// (candidates scored one by one) to the whole image (16 SADs at once, reduced once per window).
+TEST(Kernels, SearchWindowTakesTheLowestIndexAmongEqualCosts) {
+  // A 3 px lattice of one class on a 120 x 90 image, 30 px bins: about 100 features per bin.
+  const int width = 120, height = 90, bin = 30, bins_u = 4, bins_v = 3;
+  std::vector<std::int16_t> us, vs;
+  std::vector<int> begin(4 * bins_u * bins_v + 1, 0);
+  for (int row = 0; row < bins_v; ++row) {
+    for (int col = 0; col < bins_u; ++col) {
+      begin[row * bins_u + col] = static_cast<int>(us.size());
+      for (int v = row * bin; v < (row + 1) * bin; v += 3) {
+        for (int u = col * bin; u < (col + 1) * bin; u += 3) {
+          us.push_back(static_cast<std::int16_t>(u));
+          vs.push_back(static_cast<std::int16_t>(v));
+        }
+      }
+    }
+  }
+  const int n = static_cast<int>(us.size());
+  for (std::size_t k = bins_u * bins_v; k < begin.size(); ++k) begin[k] = n;
+  std::vector<std::uint8_t> descs(32 * static_cast<std::size_t>(n), 7);
+  std::uint8_t query[32];
+  std::fill(std::begin(query), std::end(query), 9);  // SAD 64 to every feature
+  kernels::SearchGrid grid;
+  grid.descs = descs.data();
+  grid.us = us.data();
+  grid.vs = vs.data();
+  grid.bin_begin = begin.data();
+  grid.size = n;
+  grid.bins_u = bins_u;
+  grid.bins_v = bins_v;
+  grid.bin_size = bin;
+  grid.width = width;
+  grid.height = height;
+  grid.bin_recip = kernels::binReciprocal(bin);
+  for (int half = 0; half <= 70; ++half) {
+    for (const int cu : {0, 31, 59, 100}) {
+      const int cv = (cu * 7 + half) % height;
+      int want = -1, inside = 0;
+      for (int i = 0; i < n; ++i) {
+        if (std::abs(us[i] - cu) > half || std::abs(vs[i] - cv) > half) continue;
+        if (want < 0) want = i;
+        ++inside;
+      }
+      Best got;
+      kernels::searchWindow(query, grid, 0, cu - half, cu + half, cv - half, cv + half, &got.index,
+                            &got.cost, &got.second);
+      ASSERT_EQ(got.index, want) << half << " " << cu;
+      ASSERT_EQ(got.cost, want < 0 ? std::numeric_limits<std::uint32_t>::max() : 64u);
+      ASSERT_EQ(got.second, inside < 2 ? std::numeric_limits<std::uint32_t>::max() : 64u);
+    }
   }
 }
 
