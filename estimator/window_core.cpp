@@ -7,7 +7,7 @@
 
 #include "common/so3.hpp"
 #include "estimator/window_lidar.hpp"
-#include "factors/pose_prior_factor.hpp"
+#include "estimator/window_refine.hpp"
 #include "frontend/triangulation.hpp"
 
 namespace ovo::estimator {
@@ -636,38 +636,7 @@ void WindowCore::removeOutliers() {
 }
 
 void WindowCore::labelGround() {
-  if (!(model_.camera_height_m > 0.0)) return;
-  const double h = model_.camera_height_m;
-  const Vec3 up_prior_C = setup_.T_B_C.linear().transpose() * Vec3::UnitZ();
-  const double min_down = std::sin(options_.ground_min_depression_deg * kDegToRad);
-  std::unordered_map<int, std::vector<Landmark*>> by_anchor;
-  for (auto& [id, lm] : map_.landmarks)
-    if (lm.rho[0] > 0.0) by_anchor[lm.anchor_kf].push_back(&lm);
-  for (auto& [kf_id, lms] : by_anchor) {
-    std::vector<Vec3> points_C;
-    for (const Landmark* lm : lms) points_C.push_back(lm->bearing_anchor_C / lm->rho[0]);
-    const auto plane = fitGroundPlane(points_C, up_prior_C, ground_options_);
-    const bool plane_ok = plane && std::abs(plane->height - h) <= options_.ground_scale_gate * h;
-    for (std::size_t k = 0; k < lms.size(); ++k) {
-      Landmark& lm = *lms[k];
-      const Vec3& p_C = points_C[k];
-      if (lm.on_ground) {  // keeps its factor while it stays near the plane it was given
-        const double depth_below = -lm.ground_up_C.dot(p_C);
-        if (std::abs(depth_below - h) > 2.0 * options_.ground_inlier_fraction * h)
-          lm.on_ground = false;
-        continue;
-      }
-      if (!plane_ok) continue;
-      const double down = -plane->up_C.dot(lm.bearing_anchor_C);
-      const double depth_below = -plane->up_C.dot(p_C);
-      const double dist = (p_C + depth_below * plane->up_C).norm();  // along the ground
-      if (down < min_down || dist > options_.ground_max_distance_m ||
-          std::abs(depth_below - plane->height) > options_.ground_inlier_fraction * h)
-        continue;
-      lm.on_ground = true;
-      lm.ground_up_C = plane->up_C;
-    }
-  }
+  labelGroundLandmarks(map_.landmarks, model_, options_, ground_options_);
 }
 
 void WindowCore::marginalize() {
@@ -1014,7 +983,7 @@ bool WindowCore::tryInitialize(const VisualFrame& frame, const SE3& T_W_B_pred,
   gauge_.b_g = bias_;
   gauge_.b_g_sigma_radps = bias_sigma_radps;
   if (bias_note) note(bias_note);
-  if (!still_gauge_ && still_bias_.estimate(options_.standstill_min_bias_s)) still_gauge_ = gauge_;
+  if (options_.refine == "full") segment_gauges_.push_back(gauge_);
   carried_bias_.reset();
   recent_zero_rate_.reset();
   still_bias_.reset();
@@ -1074,50 +1043,12 @@ void WindowCore::refineAll() {
             [](const Keyframe* a, const Keyframe* b) { return a->id < b->id; });
   if (kfs.size() < 2) return;
   map_.rememberPoints(setup_.T_B_C);
-
-  // Every track seen by two keyframes of one segment with a known point: anchored at its first.
-  std::unordered_map<TrackId, Landmark> landmarks;
-  std::unordered_map<TrackId, int> first_seen;
-  for (const Keyframe* kf : kfs) {
-    for (const auto& [id, o] : kf->observations) {
-      if (landmarks.count(id)) continue;
-      auto p = map_.last_point_W.find(id);
-      if (p == map_.last_point_W.end()) continue;
-      const Vec3 p_C = (kf->pose() * setup_.T_B_C).inverse() * p->second;
-      const double depth = o.bearing_C.dot(p_C);
-      if (!(depth > options_.landmark_min_depth_m)) continue;
-      Landmark lm;
-      lm.id = id;
-      lm.anchor_kf = kf->id;
-      lm.bearing_anchor_C = o.bearing_C;
-      lm.rho[0] = 1.0 / depth;
-      landmarks[id] = lm;
-    }
-  }
-  WindowGauge gauge;
-  gauge.kf_id = kfs.front()->id;
-  gauge.T_W_B = kfs.front()->pose();
-  gauge.b_g = kfs.front()->bias();
-  if (still_gauge_ && still_gauge_->kf_id == gauge.kf_id) {
-    gauge.b_g = still_gauge_->b_g;
-    gauge.b_g_sigma_radps = still_gauge_->b_g_sigma_radps;
-  }
-  auto factors = buildFactors(kfs, landmarks, model_, gauge);
-  // Each later segment keeps its online placement (nothing links segments but the gyro).
-  for (std::size_t k = 1; k < kfs.size(); ++k) {
-    if (kfs[k]->segment == kfs[k - 1]->segment) continue;
-    FactorSpec p;
-    p.kind = FactorKind::kPosePrior;
-    p.cost = std::make_unique<factors::PosePriorFactor>(
-        kfs[k]->pose(), factors::PosePriorFactor::gaugeInformation(1e-3, 1e-3, 1e-3));
-    p.blocks = {kfs[k]->q_W_B, kfs[k]->p_W_B};
-    factors.push_back(std::move(p));
-  }
-  SolveOptions so;
-  so.linear_solver = "sparse_schur";
-  so.max_iterations = options_.refine_iterations;
-  so.max_time_s = 0.0;
-  solveFactors(std::move(factors), kfs, landmarks, model_, so);
+  // Each segment's first keyframe keeps the bias prior it started with, at its pose now.
+  std::vector<WindowGauge> gauges = segment_gauges_;
+  for (WindowGauge& g : gauges)
+    if (auto T_W_B = keyframePose(g.kf_id)) g.T_W_B = *T_W_B;
+  refine_info_ = refineKeyframes(kfs, map_.last_point_W, model_, gauges, options_, ground_options_);
+  if (!refine_info_.usable) note("full refinement failed: the online keyframe poses are kept");
   for (const Keyframe* kf : kfs) kf_poses_[kf->id] = kf->pose();
 }
 

@@ -18,6 +18,7 @@
 #include "estimator/window_map.hpp"
 #include "estimator/window_options.hpp"
 #include "estimator/window_problem.hpp"
+#include "estimator/window_refine.hpp"
 
 namespace ovo::estimator {
 
@@ -59,6 +60,8 @@ class WindowCore {
   bool initialized() const { return initialized_; }
   const WindowMap& map() const { return map_; }
   const WindowSolveInfo& lastSolve() const { return last_solve_; }
+  /// What the full refinement did (empty before finish() or without --refine full).
+  const RefineInfo& refineInfo() const { return refine_info_; }
   /// What holds the window's gauge now (first-keyframe priors or the marginalisation prior).
   const WindowGauge& gauge() const { return gauge_; }
   const WindowOptions& options() const { return options_; }
@@ -140,7 +143,7 @@ class WindowCore {
   // initialisation the still frames of every streak add up to the first keyframe's bias prior;
   // after it each streak gives a zero-rate factor on the last keyframe when it ends.
   StandstillBias still_bias_;
-  std::optional<WindowGauge> still_gauge_;  // the first keyframe's bias prior from it (refine)
+  std::vector<WindowGauge> segment_gauges_;  // each segment's gauge at its start (refine full)
   // The last zero-rate update while initialised, and when its streak ended: the bias prior of
   // a segment that starts soon after it (e.g. the restart from the last still frame).
   std::optional<std::pair<Timestamp, StandstillBias::Estimate>> recent_zero_rate_;
@@ -173,6 +176,7 @@ class WindowCore {
   std::vector<std::pair<Timestamp, Vec3>> bias_history_;
   EstimatorStats stats_;
   WindowSolveInfo last_solve_;
+  RefineInfo refine_info_;
   bool in_gap_ = false;
   bool finished_ = false;
 };

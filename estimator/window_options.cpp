@@ -92,6 +92,10 @@ WindowOptions readWindowOptions(const Config& c) {
       c.getIntInRange(p + "motion_only_iterations", o.motion_only_iterations, 1, 100);
   o.refine = c.getChoice(p + "refine", o.refine, {"none", "full"});
   o.refine_iterations = c.getIntInRange(p + "refine_iterations", o.refine_iterations, 1, 1000);
+  o.refine_passes = c.getIntInRange(p + "refine_passes", o.refine_passes, 1, 10);
+  o.refine_max_span_frames =
+      c.getIntInRange(p + "refine_max_span_frames", o.refine_max_span_frames, 0, 1000000);
+  o.refine_ground = c.get<bool>(p + "refine_ground", o.refine_ground);
   o.marginalize_max_landmarks =
       c.getIntInRange(p + "marginalize_max_landmarks", o.marginalize_max_landmarks, 0, 100000);
   o.use_ground_height = c.get<bool>(p + "use_ground_height", o.use_ground_height);

@@ -101,7 +101,12 @@ struct WindowOptions {
   double max_solver_time_s = 0.0;             // per window solve, s; 0 = no limit (online: ~0.04)
   int motion_only_iterations = 5;             // per-frame pose refinement
   std::string refine = "none";                // none | full (offline: re-optimise all keyframes)
-  int refine_iterations = 30;                 // full refinement iterations
+  int refine_iterations = 30;                 // full refinement iterations per pass
+  int refine_passes = 2;                      // solves, outliers removed between them
+  int refine_max_span_frames = 40;            // a track becomes a new landmark after this many
+                                              // frames (tracks creep: a long span ties far
+                                              // keyframes with a biased ray); 0: never
+  bool refine_ground = true;                  // camera-height factors in the refinement
   int marginalize_max_landmarks = 0;          // ending landmarks Schur-complemented into the prior,
                                               // strongest first (the rest are dropped); 0: all
   bool marginalize_reanchored = true;  // landmarks that outlive the oldest keyframe: their factors

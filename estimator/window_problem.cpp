@@ -15,25 +15,6 @@
 namespace ovo::estimator {
 namespace {
 
-/// Prior on one gyro bias: r = (b_g - b_0) / sigma.
-class BiasPriorFactor final : public ceres::SizedCostFunction<3, 3> {
- public:
-  BiasPriorFactor(const Vec3& b0, double sigma) : b0_(b0), inv_sigma_(1.0 / sigma) {}
-  bool Evaluate(double const* const* parameters, double* residuals,
-                double** jacobians) const override {
-    for (int i = 0; i < 3; ++i) residuals[i] = (parameters[0][i] - b0_[i]) * inv_sigma_;
-    if (jacobians != nullptr && jacobians[0] != nullptr) {
-      Eigen::Map<Eigen::Matrix<double, 3, 3, Eigen::RowMajor>> J(jacobians[0]);
-      J = Mat3::Identity() * inv_sigma_;
-    }
-    return true;
-  }
-
- private:
-  Vec3 b0_;
-  double inv_sigma_;
-};
-
 std::unordered_map<int, Keyframe*> byId(const std::vector<Keyframe*>& keyframes) {
   std::unordered_map<int, Keyframe*> out;
   for (Keyframe* kf : keyframes) out[kf->id] = kf;

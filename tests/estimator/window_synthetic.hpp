@@ -8,6 +8,7 @@
 #include <cmath>
 #include <filesystem>
 #include <random>
+#include <tuple>
 #include <vector>
 
 #include "camera/calib_io.hpp"
@@ -26,7 +27,9 @@ struct SyntheticOptions {
   double stop_from_s = -1.0, stop_to_s = -1.0;  // a standstill in the middle (s)
   double yaw_amplitude_deg = 3.0;
   double yaw_period_s = 4.0;
-  double pixel_sigma = 0.15;                    // feature noise (px); the rig says 0.5
+  double pixel_sigma = 0.15;    // feature noise (px); the rig says 0.5
+  double track_creep_px = 0.0;  // > 0: each track's pixel also random-walks this much per
+                                // sqrt(frame) while it is seen, and reports its age (frames)
   Vec3 gyro_bias = Vec3(0.004, -0.003, 0.005);  // rad/s
   double gyro_noise_density = 1.7e-4;
   double gyro_gap_from_s = -1.0, gyro_gap_to_s = -1.0;  // no gyro samples inside (s)
@@ -141,6 +144,7 @@ inline SyntheticSequence makeSyntheticSequence(const SyntheticOptions& o,
   // Frames and scans.
   const SE3& T_B_C = seq.setup.T_B_C;
   const int n_frames = static_cast<int>(o.duration_s * o.camera_rate_hz);
+  std::vector<std::tuple<int, Vec2, int>> creep(points.size(), {-2, Vec2::Zero(), 0});
   for (int f = 0; f < n_frames; ++f) {
     const double t = f / o.camera_rate_hz;
     SyntheticFrame frame;
@@ -154,10 +158,19 @@ inline SyntheticSequence makeSyntheticSequence(const SyntheticOptions& o,
       if (d < 0.3 || d > 12.0 || p_C.z() < -0.2 * d) continue;
       const auto px = camera::project(seq.setup.camera, p_C);
       if (!px || !camera::isValid(seq.setup.camera, *px)) continue;
-      const Vec2 noisy = *px + o.pixel_sigma * Vec2(gauss(rng), gauss(rng));
+      Vec2 noisy = *px + o.pixel_sigma * Vec2(gauss(rng), gauss(rng));
+      int age = 1;
+      if (o.track_creep_px > 0.0) {  // a track lives while its point stays in view
+        auto& [last_f, walk_px, track_age] = creep[i];
+        if (last_f != f - 1) walk_px.setZero(), track_age = 0;
+        walk_px += o.track_creep_px * Vec2(gauss(rng), gauss(rng));
+        last_f = f;
+        age = ++track_age;
+        noisy += walk_px;
+      }
       const auto b = camera::unproject(seq.setup.camera, noisy);
       if (!b) continue;
-      frame.visual.observations.push_back({static_cast<estimator::TrackId>(i), noisy, *b});
+      frame.visual.observations.push_back({static_cast<estimator::TrackId>(i), noisy, *b, age});
     }
     if (f % 2 == 0) {
       LidarScan scan;
