@@ -592,12 +592,7 @@ void WindowCore::solveWindow() {
   last_solve_.iterations = s.iterations;
   removeOutliers();
   labelGround();
-  // Gyro preintegrations whose bias linearisation is now far from the estimate.
-  for (std::size_t k = 1; k < kfs.size(); ++k) {
-    auto& pi = kfs[k]->preint_from_prev;
-    if (pi && pi->needsRepropagation(kfs[k - 1]->bias(), 0.002))
-      pi->repropagate(kfs[k - 1]->bias());
-  }
+  repropagateGyro(kfs);
   last_solve_.solve_ms = msSince(t0);
 }
 
@@ -623,12 +618,10 @@ void WindowCore::removeOutliers() {
       auto lm = map_.landmarks.find(a.track_id);
       if (lm == map_.landmarks.end()) return true;
       const auto p_W = map_.pointW(lm->second, setup_.T_B_C);
-      Vec3 p_L = p_W ? Vec3(T_L_W * *p_W) : Vec3::Zero();
-      if (a.planar) p_L.z() = 0.0;
       const bool outlier =
-          !p_W || std::abs(p_L.norm() - a.range_m) >
-                      std::max(options_.lidar_outlier_sigmas * model_.lidar_sigma_m,
-                               options_.lidar_outlier_fraction * a.range_m);
+          !p_W ||
+          lidarRangeDisagrees(a, *p_W, T_L_W, options_.lidar_outlier_sigmas * model_.lidar_sigma_m,
+                              options_.lidar_outlier_fraction);
       if (outlier) kf->lidar_rejected.insert(a.track_id);
       return outlier;
     });
@@ -718,6 +711,11 @@ void WindowCore::marginalize() {
   }
 }
 
+double WindowCore::walkedBiasSigma(double sigma_radps, double dt_s) const {
+  return std::sqrt(sigma_radps * sigma_radps +
+                   model_.bias_random_walk * model_.bias_random_walk * dt_s);
+}
+
 void WindowCore::endStandstill(Timestamp t_ns) {
   still_bias_.endStreak();
   if (!initialized_) {  // the streaks before initialisation add up
@@ -730,8 +728,7 @@ void WindowCore::endStandstill(Timestamp t_ns) {
   Keyframe& kf = *map_.keyframes.back();
   // The bias walks between the keyframe and the end of the standstill.
   const double walk_s = std::max(0.0, toSeconds(t_ns - kf.t_ns));
-  const double sigma = std::sqrt(z->sigma_radps * z->sigma_radps +
-                                 model_.bias_random_walk * model_.bias_random_walk * walk_s);
+  const double sigma = walkedBiasSigma(z->sigma_radps, walk_s);
   if (kf.zero_rate) {  // a second standstill before the next keyframe: both, by information
     const double w0 = 1.0 / (kf.zero_rate->sigma_radps * kf.zero_rate->sigma_radps);
     const double w1 = 1.0 / (sigma * sigma);
@@ -943,18 +940,14 @@ bool WindowCore::tryInitialize(const VisualFrame& frame, const SE3& T_W_B_pred,
     if (carried_bias_) {
       // A new segment after a loss: the bias has only walked since the last segment's keyframe.
       const double dt_s = std::max(0.0, toSeconds(ref.t_ns - carried_bias_->first));
-      const double sigma = options_.reinit_bias_sigma_radps;
       bias_ = carried_bias_->second;
-      bias_sigma_radps =
-          std::sqrt(sigma * sigma + model_.bias_random_walk * model_.bias_random_walk * dt_s);
+      bias_sigma_radps = walkedBiasSigma(options_.reinit_bias_sigma_radps, dt_s);
       bias_note =
           "re-initialised after a loss: the gyro bias carried over from the previous segment";
     }
     if (recent_zero_rate_) {
       const double dt_s = std::abs(toSeconds(ref.t_ns - recent_zero_rate_->first));
-      const double s0 = recent_zero_rate_->second.sigma_radps;
-      const double sigma =
-          std::sqrt(s0 * s0 + model_.bias_random_walk * model_.bias_random_walk * dt_s);
+      const double sigma = walkedBiasSigma(recent_zero_rate_->second.sigma_radps, dt_s);
       if (bias_sigma_radps <= 0.0 || sigma < bias_sigma_radps) {
         bias_ = recent_zero_rate_->second.bias_radps;
         bias_sigma_radps = sigma;

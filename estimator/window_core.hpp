@@ -149,6 +149,8 @@ class WindowCore {
   std::optional<std::pair<Timestamp, StandstillBias::Estimate>> recent_zero_rate_;
   /// The first moving frame after still ones (at t_ns): closes the streak.
   void endStandstill(Timestamp t_ns);
+  // A bias sigma after dt_s of random walk: sqrt(sigma^2 + walk^2 dt).
+  double walkedBiasSigma(double sigma_radps, double dt_s) const;
 
   // Initialisation reference.
   struct Reference {

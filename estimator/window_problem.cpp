@@ -251,6 +251,21 @@ SolveSummary solveFactors(std::vector<FactorSpec> factors, const std::vector<Key
   return summary;
 }
 
+bool lidarRangeDisagrees(const LidarAssociation& a, const Vec3& p_W, const SE3& T_L_W,
+                         double gate_m, double gate_fraction) {
+  Vec3 p_L = T_L_W * p_W;
+  if (a.planar) p_L.z() = 0.0;
+  return std::abs(p_L.norm() - a.range_m) > std::max(gate_m, gate_fraction * a.range_m);
+}
+
+void repropagateGyro(const std::vector<Keyframe*>& keyframes) {
+  for (std::size_t k = 1; k < keyframes.size(); ++k) {
+    auto& pi = keyframes[k]->preint_from_prev;
+    if (pi && pi->needsRepropagation(keyframes[k - 1]->bias(), 0.002))
+      pi->repropagate(keyframes[k - 1]->bias());
+  }
+}
+
 std::vector<ObservationError> observationErrors(const std::vector<Keyframe*>& keyframes,
                                                 const std::unordered_map<TrackId, Landmark>& lms,
                                                 const WindowModel& model) {

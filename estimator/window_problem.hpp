@@ -126,6 +126,16 @@ std::vector<ObservationError> observationErrors(const std::vector<Keyframe*>& ke
                                                 const std::unordered_map<TrackId, Landmark>& lms,
                                                 const WindowModel& model);
 
+/// True when the range a LiDAR association measured and the range to the landmark point p_W,
+/// seen from the scan's pose T_L_W (in the scan plane when planar), differ by more than
+/// max(gate_m, gate_fraction * range).
+bool lidarRangeDisagrees(const LidarAssociation& a, const Vec3& p_W, const SE3& T_L_W,
+                         double gate_m, double gate_fraction);
+
+/// Re-propagates the gyro preintegrations (keyframes in time order) whose bias linearisation is
+/// now more than 0.002 rad/s from the previous keyframe's estimate.
+void repropagateGyro(const std::vector<Keyframe*>& keyframes);
+
 /// Marginalises the oldest keyframe of `map` (VINS-Mono / OKVIS style, DESIGN section 6): its
 /// states, its gyro / bias / gauge factors, the previous prior, and the landmarks it anchors that
 /// are listed in `marginalize_tracks` (Schur-complemented out with all their factors) go into the

@@ -241,19 +241,13 @@ RefineInfo refineKeyframes(const std::vector<Keyframe*>& keyframes,
         if (lm == landmarks.end()) return true;
         const Vec3 p_W = kf_of.at(lm->second.anchor_kf)->pose() *
                          (model.T_B_C * (lm->second.bearing_anchor_C / lm->second.rho[0]));
-        Vec3 p_L = T_L_W * p_W;
-        if (a.planar) p_L.z() = 0.0;
-        return std::abs(p_L.norm() - a.range_m) >
-               std::max(options.lidar_outlier_sigmas * model.lidar_sigma_m,
-                        options.lidar_outlier_fraction * a.range_m);
+        return lidarRangeDisagrees(a, p_W, T_L_W,
+                                   options.lidar_outlier_sigmas * model.lidar_sigma_m,
+                                   options.lidar_outlier_fraction);
       });
     }
     if (options.refine_ground) labelGroundLandmarks(landmarks, model, options, ground_options);
-    for (std::size_t k = 1; k < kfs.size(); ++k) {
-      auto& pi = kfs[k]->preint_from_prev;
-      if (pi && pi->needsRepropagation(kfs[k - 1]->bias(), 0.002))
-        pi->repropagate(kfs[k - 1]->bias());
-    }
+    repropagateGyro(kfs);
   }
   info.usable = true;
   for (std::size_t k = 0; k < keyframes.size(); ++k) {
