@@ -79,7 +79,8 @@ void ssdAround(const std::uint8_t* du, const std::uint8_t* dv, int width, int u,
                const std::uint8_t* ref, std::uint32_t* out);
 
 /// Best (lowest SAD, lowest index on ties) candidate i in [begin, end) with
-/// u0 <= us[i] <= u1 and v0 <= vs[i] <= v1; descriptors of candidate i at descs + 32 i.
+/// u0 <= us[i] <= u1 and v0 <= vs[i] <= v1; descriptors of candidate i at descs + 32 i. One by one
+/// in index order: searchWindow's path on CPUs without AVX-512.
 /// Updates *best_index / *best_cost only when a candidate beats *best_cost, and *second_cost to
 /// the lowest cost of the other candidates seen.
 void searchBest(const std::uint8_t* query, const std::uint8_t* descs, const std::int16_t* us,

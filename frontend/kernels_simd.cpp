@@ -40,8 +40,7 @@ inline std::uint32_t sadInline(const std::uint8_t* a, const std::uint8_t* b) {
 }
 
 #if defined(__AVX512BW__)
-// Candidates inside the window (of 16) from which searchBest and searchWindow compute all 16 SADs
-// at once.
+// Candidates inside the window (of 16) from which searchWindow computes all 16 SADs at once.
 constexpr int kMinVectorSad = 4;
 // searchWindow: in windows of at least this area (px^2, e.g. the sparse pass's full windows) every
 // group of 16 with a candidate inside gets the 16 SADs at once (fewer mispredicted branches); in
@@ -605,7 +604,8 @@ void searchBest(const std::uint8_t* query, const std::uint8_t* descs, const std:
   int index = *best_index;
   std::uint32_t cost = *best_cost;
   std::uint32_t second = *second_cost;
-  const auto consider = [&](int i) {
+  for (int i = begin; i < end; ++i) {
+    if (us[i] < u0 || us[i] > u1 || vs[i] < v0 || vs[i] > v1) continue;
     const std::uint32_t c =
         sadInline(query, descs + static_cast<std::ptrdiff_t>(i) * kDescriptorBytes);
     if (c < cost) {
@@ -615,57 +615,7 @@ void searchBest(const std::uint8_t* query, const std::uint8_t* descs, const std:
     } else if (c < second) {
       second = c;
     }
-  };
-#if defined(__AVX512BW__)
-  // Window test of 32 candidates at once. Few inside: the SAD of each in index order; many: the
-  // SADs of 16 at once and their minimum (same result: lowest cost, lowest index on ties).
-  const __m512i lo_u = _mm512_set1_epi16(static_cast<std::int16_t>(u0));
-  const __m512i hi_u = _mm512_set1_epi16(static_cast<std::int16_t>(u1));
-  const __m512i lo_v = _mm512_set1_epi16(static_cast<std::int16_t>(v0));
-  const __m512i hi_v = _mm512_set1_epi16(static_cast<std::int16_t>(v1));
-  const __m512i query2 =
-      _mm512_broadcast_i64x4(_mm256_loadu_si256(reinterpret_cast<const __m256i*>(query)));
-  for (int i = begin; i < end; i += 32) {
-    const int n = std::min(32, end - i);
-    const __mmask32 tail = n == 32 ? ~__mmask32{0} : (__mmask32{1} << n) - 1;
-    const __m512i u = _mm512_maskz_loadu_epi16(tail, us + i);
-    const __m512i v = _mm512_maskz_loadu_epi16(tail, vs + i);
-    const std::uint32_t inside =
-        _mm512_mask_cmpge_epi16_mask(tail, u, lo_u) & _mm512_cmple_epi16_mask(u, hi_u) &
-        _mm512_cmpge_epi16_mask(v, lo_v) & _mm512_cmple_epi16_mask(v, hi_v);
-    for (int half = 0; half < 2; ++half) {
-      const int first = i + 16 * half;
-      std::uint32_t bits = (inside >> (16 * half)) & 0xffffu;
-      if (bits == 0) continue;
-      if (first + 16 > end || __builtin_popcount(bits) < kMinVectorSad) {
-        while (bits) {
-          consider(first + __builtin_ctz(bits));
-          bits &= bits - 1;
-        }
-        continue;
-      }
-      const __m512i costs = _mm512_mask_blend_epi32(
-          static_cast<__mmask16>(bits), _mm512_set1_epi32(-1),
-          sad16(query2, descs + static_cast<std::ptrdiff_t>(first) * kDescriptorBytes));
-      const std::uint32_t m = _mm512_reduce_min_epu32(costs);
-      const int lane = __builtin_ctz(_mm512_cmpeq_epi32_mask(costs, _mm512_set1_epi32(m)));
-      if (m < cost) {
-        const std::uint32_t others = _mm512_reduce_min_epu32(_mm512_mask_blend_epi32(
-            static_cast<__mmask16>(1u << lane), costs, _mm512_set1_epi32(-1)));
-        second = std::min(cost, others);
-        cost = m;
-        index = first + lane;
-      } else if (m < second) {
-        second = m;
-      }
-    }
   }
-#else
-  for (int i = begin; i < end; ++i) {
-    if (us[i] < u0 || us[i] > u1 || vs[i] < v0 || vs[i] > v1) continue;
-    consider(i);
-  }
-#endif
   *best_index = index;
   *best_cost = cost;
   *second_cost = second;

@@ -80,6 +80,26 @@ TEST(Kernels, BinIndexEqualsIntegerDivision) {
   }
 }
 
+// The SearchGrid over the given features (n = us.size()) of a width x height image.
+kernels::SearchGrid gridOf(const std::vector<std::uint8_t>& descs,
+                           const std::vector<std::int16_t>& us, const std::vector<std::int16_t>& vs,
+                           const std::vector<int>& begin, int bins_u, int bins_v, int bin,
+                           int width, int height) {
+  kernels::SearchGrid grid;
+  grid.descs = descs.data();
+  grid.us = us.data();
+  grid.vs = vs.data();
+  grid.bin_begin = begin.data();
+  grid.size = static_cast<int>(us.size());
+  grid.bins_u = bins_u;
+  grid.bins_v = bins_v;
+  grid.bin_size = bin;
+  grid.width = width;
+  grid.height = height;
+  grid.bin_recip = kernels::binReciprocal(bin);
+  return grid;
+}
+
 TEST(Kernels, SearchWindowEqualsTheBruteForceSearchOverItsClass) {
   std::mt19937 rng(17);
   std::uniform_int_distribution<int> byte(100, 104), cls_of(0, 3), u_of(0, 219), v_of(0, 159);
@@ -104,18 +124,7 @@ TEST(Kernels, SearchWindowEqualsTheBruteForceSearchOverItsClass) {
     vs[i] = static_cast<std::int16_t>(raw[i].v);
     for (int k = 0; k <= raw[i].key; ++k) begin[k] = std::min(begin[k], i);
   }
-  kernels::SearchGrid grid;
-  grid.descs = descs.data();
-  grid.us = us.data();
-  grid.vs = vs.data();
-  grid.bin_begin = begin.data();
-  grid.size = n;
-  grid.bins_u = bins_u;
-  grid.bins_v = bins_v;
-  grid.bin_size = bin;
-  grid.width = 220;
-  grid.height = 160;
-  grid.bin_recip = kernels::binReciprocal(bin);
+  const kernels::SearchGrid grid = gridOf(descs, us, vs, begin, bins_u, bins_v, bin, 220, 160);
   std::uniform_int_distribution<int> centre_u(-20, 240), centre_v(-20, 180), half_of(0, 120);
   for (int trial = 0; trial < 2000; ++trial) {
     std::uint8_t query[32];
@@ -157,18 +166,7 @@ TEST(Kernels, SearchWindowTakesTheLowestIndexAmongEqualCosts) {
   std::vector<std::uint8_t> descs(32 * static_cast<std::size_t>(n), 7);
   std::uint8_t query[32];
   std::fill(std::begin(query), std::end(query), 9);  // SAD 64 to every feature
-  kernels::SearchGrid grid;
-  grid.descs = descs.data();
-  grid.us = us.data();
-  grid.vs = vs.data();
-  grid.bin_begin = begin.data();
-  grid.size = n;
-  grid.bins_u = bins_u;
-  grid.bins_v = bins_v;
-  grid.bin_size = bin;
-  grid.width = width;
-  grid.height = height;
-  grid.bin_recip = kernels::binReciprocal(bin);
+  const kernels::SearchGrid grid = gridOf(descs, us, vs, begin, bins_u, bins_v, bin, width, height);
   for (int half = 0; half <= 70; ++half) {
     for (const int cu : {0, 31, 59, 100}) {
       const int cv = (cu * 7 + half) % height;
