@@ -11,6 +11,7 @@
 //   ovo_live_camera --camera run.avi --calib sensor.yaml --no-gyro < /dev/null
 #include <fmt/format.h>
 #include <poll.h>
+#include <pthread.h>
 #include <spdlog/spdlog.h>
 #include <unistd.h>
 
@@ -35,7 +36,38 @@
 namespace {
 
 std::atomic<bool> g_stop{false};
-extern "C" void onSignal(int) { g_stop = true; }
+
+// Ctrl-C and SIGTERM end the run with its summary. Both signals are blocked in every thread from
+// the start of main (threads inherit the mask, the OpenCL runtime's too) and taken by one watcher
+// thread, so no handler is ever involved: PoCL's LLVM installs a one-shot (SA_RESETHAND) SIGINT
+// handler in front of any of ours, and a second SIGINT arriving before it re-installs ours (as
+// `timeout -s INT` sends one to the process and one to its group) killed the run with status 130.
+class StopSignals {
+ public:
+  StopSignals() {
+    sigemptyset(&set_);
+    sigaddset(&set_, SIGINT);
+    sigaddset(&set_, SIGTERM);
+    pthread_sigmask(SIG_BLOCK, &set_, nullptr);
+    watcher_ = std::thread([this] {
+      const timespec tick{0, 100'000'000};
+      while (!done_) {
+        if (sigtimedwait(&set_, nullptr, &tick) > 0) g_stop = true;  // further signals: same
+      }
+    });
+  }
+  ~StopSignals() {
+    done_ = true;
+    watcher_.join();
+  }
+  StopSignals(const StopSignals&) = delete;
+  StopSignals& operator=(const StopSignals&) = delete;
+
+ private:
+  sigset_t set_{};
+  std::atomic<bool> done_{false};
+  std::thread watcher_;
+};
 
 struct Args {
   std::string camera = "0";
@@ -221,8 +253,7 @@ int run(const Args& args) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  std::signal(SIGINT, onSignal);  // from the start: Ctrl-C during start-up ends cleanly too
-  std::signal(SIGTERM, onSignal);
+  const StopSignals stop_signals;  // from the start: Ctrl-C during start-up ends cleanly too
   CLI::App app{
       "ovo_live_camera: live odometry from a camera (or video file) and a gyro csv stream"};
   Args args;

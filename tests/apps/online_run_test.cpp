@@ -167,5 +167,33 @@ TEST(LiveCamera, EndsCleanlyOnCtrlC) {
   EXPECT_NE(out.find("frames in"), std::string::npos) << out;
 }
 
+// Signals that follow each other closely (a user's repeated Ctrl-C, or `timeout` signalling the
+// process and then its group) must all land on the clean stop: none may find a library's one-shot
+// handler reset to the default action and kill the run.
+TEST(LiveCamera, ABurstOfInterruptsStillEndsCleanly) {
+  OVO_REQUIRE_DATA("kitti07-first160/image_0/000000.png");
+  OVO_REQUIRE_PROGRAM(liveCameraBinaryPath());
+  const fs::path dir = tempDir();
+  const auto in = makeLiveInputs(dir, 12);
+  if (!in) GTEST_SKIP() << "OpenCV cannot write an MJPG .avi here";
+  const fs::path poses = dir / "poses.txt";
+  std::string out;
+  // Started in the background at 0.1x (12 s). Once its second pose is out (at most 30 s; the
+  // OpenCL runtime, whose LLVM installs the one-shot handler, has then started), 50 SIGINTs back
+  // to back; `wait` gives the run's own exit status (130 if a signal killed it).
+  const int code = runShell(
+      "('" + liveCameraBinaryPath().string() + "' --camera '" + in->video.string() + "' --calib '" +
+          in->calib.string() + "' --estimator vo --rate 0.1 < '" + in->gyro.string() + "' > '" +
+          poses.string() + "' 2>&1 & pid=$!; i=0; until grep -q '^0\\.1' '" + poses.string() +
+          "' || [ $i -ge 300 ]; do sleep 0.1; i=$((i+1)); done; "
+          "for k in $(seq 50); do kill -INT $pid 2>/dev/null; done; wait $pid)",
+      dir, &out);
+  std::ifstream log(poses);
+  const std::string printed((std::istreambuf_iterator<char>(log)), {});
+  EXPECT_EQ(code, 0) << printed;
+  EXPECT_NE(printed.find("frames in"), std::string::npos) << printed;
+  EXPECT_NE(printed.find("0.000000000 "), std::string::npos) << printed;  // it ran before the stop
+}
+
 }  // namespace
 }  // namespace ovo::test
