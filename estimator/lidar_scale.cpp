@@ -107,8 +107,7 @@ std::optional<Vec3> onBeamSurface(const LidarScan& scan, const SE3& T_C_L, std::
     return along_range;
   const Vec3 tangent = (T_C_L.linear() * (scan.point_L(beam + 1) - scan.point_L(beam - 1)));
   if (!(tangent.norm() > 1e-9)) return along_range;
-  const bool ground = camera_height_m && -up_C.dot(p_C) > 0.7 * *camera_height_m;
-  if (ground) return std::nullopt;
+  if (camera_height_m && isGroundBeam(p_C, up_C, *camera_height_m)) return std::nullopt;
   Vec3 n = tangent.cross(up_C);
   if (!(n.norm() > 1e-9 * tangent.norm())) return along_range;
   n.normalize();

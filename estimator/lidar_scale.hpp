@@ -65,6 +65,14 @@ struct ScaleEstimate {
 /// T_C_L from the rig extrinsics: T_B_C^-1 T_B_L.
 inline SE3 cameraFromLidar(const SE3& T_B_C, const SE3& T_B_L) { return T_B_C.inverse() * T_B_L; }
 
+/// A beam end point p_C (camera frame) on the ground: more than 0.7 camera heights below the
+/// camera along up_C (the ground normal). A pitched LiDAR meets the ground at a grazing angle,
+/// where the range hangs on the slope and changes fast with elevation: a feature a fraction of a
+/// degree off the scan plane reads tens of centimetres off. camera_height_m <= 0: no ground known.
+inline bool isGroundBeam(const Vec3& p_C, const Vec3& up_C, double camera_height_m) {
+  return camera_height_m > 0.0 && -up_C.dot(p_C) > 0.7 * camera_height_m;
+}
+
 /// Associates each scan end point (projected with T_C_L into cam) with the nearest feature within
 /// the radius (one scan point per feature: the closest in the image) and returns the robust scale,
 /// or nullopt when fewer than min_associations survive the gate. The scan should be the one

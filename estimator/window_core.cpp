@@ -90,8 +90,9 @@ WindowCore::WindowCore(const SensorSetup& setup, const WindowOptions& options,
   model_.bearing_sigma_rad = pixel_sigma / camera::focalPx(setup.camera);
   model_.bearing_huber = options.bearing_huber_sigmas;
   model_.bearing_creep_rad = options.track_creep_px / camera::focalPx(setup.camera);
-  model_.lidar_sigma_m =
-      options.lidar_range_sigma_m > 0.0 ? options.lidar_range_sigma_m : setup.lidar_range_sigma_m;
+  model_.lidar_sigma_m = std::hypot(
+      options.lidar_range_sigma_m > 0.0 ? options.lidar_range_sigma_m : setup.lidar_range_sigma_m,
+      options.lidar_association_sigma_m);
   model_.lidar_huber = options.lidar_huber_sigmas;
   model_.lidar_cauchy = options.lidar_loss == "cauchy";
   model_.bias_random_walk = options.gyro_bias_random_walk > 0.0 ? options.gyro_bias_random_walk
@@ -461,12 +462,28 @@ std::vector<LidarAssociation> WindowCore::lidarCandidates(const VisualFrame& fra
   if (!use_lidar_) return out;
   const LidarScan* scan = scanAt(frame.t_ns);
   if (scan == nullptr) return out;
-  const SE3 T_C_L = setup_.T_B_C.inverse() * setup_.T_B_L;
-  const auto beams = projectScan(*scan, setup_.camera, T_C_L, options_.lidar_edge_step,
-                                 options_.lidar_edge_neighbours);
-  for (const BeamMatch& m : associateBeams(beams, frame.observations, options_.lidar_radius_px))
+  for (const BeamMatch& m :
+       associateBeams(usableBeams(*scan), frame.observations, options_.lidar_radius_px))
     out.push_back({m.track_id, m.range_m});
   return out;
+}
+
+std::vector<BeamInImage> WindowCore::usableBeams(const LidarScan& scan) const {
+  return projectScan(scan, setup_.camera, cameraFromLidar(setup_.T_B_C, setup_.T_B_L),
+                     options_.lidar_edge_step, options_.lidar_edge_neighbours);
+}
+
+std::optional<double> WindowCore::rangeForLandmark(const TrackObservation& o, double phi,
+                                                   double r) const {
+  if (options_.lidar_ground_beams == "raw" || !setup_.camera_height_m) return r;
+  const SE3 T_C_L = cameraFromLidar(setup_.T_B_C, setup_.T_B_L);
+  const Vec3 hit_L(r * std::cos(phi), r * std::sin(phi), 0.0);
+  const Vec3 up_C = setup_.T_B_C.rotation().transpose() * Vec3::UnitZ();
+  if (!isGroundBeam(T_C_L * hit_L, up_C, *setup_.camera_height_m)) return r;
+  if (options_.lidar_ground_beams == "skip") return std::nullopt;
+  const SE3 T_L_C = T_C_L.inverse();
+  return groundRangeAlongRay(hit_L, T_L_C.rotation() * up_C, T_L_C.translation(),
+                             T_L_C.rotation() * o.bearing_C);
 }
 
 Keyframe* WindowCore::addKeyframe(Timestamp t_ns, const SE3& T_W_B, const Vec3& bias,
@@ -554,10 +571,13 @@ void WindowCore::associateLidar(Keyframe& kf, bool gate_depth) {
       const Vec3 p_L = T_L_W * *p_W;
       const double d_xy = p_L.head<2>().norm();
       if (!(d_xy > 1e-3) || std::abs(p_L.z()) > max_tan_elevation * d_xy) continue;
-      const auto r = interpolateRange(*kf.scan, std::atan2(p_L.y(), p_L.x()),
-                                      options_.lidar_edge_step, options_.lidar_edge_neighbours);
-      if (!r || (gate_depth && std::abs(d_xy - *r) > options_.lidar_depth_gate * *r)) continue;
-      kf.lidar.push_back({id, *r, true});
+      const double phi = std::atan2(p_L.y(), p_L.x());
+      const auto r =
+          interpolateRange(*kf.scan, phi, options_.lidar_edge_step, options_.lidar_edge_neighbours);
+      const auto range = r ? rangeForLandmark(o, phi, *r) : std::nullopt;
+      if (!range || (gate_depth && std::abs(d_xy - *range) > options_.lidar_depth_gate * *range))
+        continue;
+      kf.lidar.push_back({id, *range, true});
     }
     return;
   }
@@ -812,7 +832,6 @@ bool WindowCore::tryInitialize(const VisualFrame& frame, const SE3& T_W_B_pred,
   }
   lidar_scale_ = false;
   if (use_lidar_) {
-    const SE3 T_C_L = setup_.T_B_C.inverse() * setup_.T_B_L;
     std::unordered_map<TrackId, int> point_of;
     for (std::size_t k = 0; k < tv->points_index.size(); ++k)
       point_of[ids[tv->points_index[k]]] = static_cast<int>(k);
@@ -820,8 +839,7 @@ bool WindowCore::tryInitialize(const VisualFrame& frame, const SE3& T_W_B_pred,
     for (int view = 0; view < 2; ++view) {
       const LidarScan* scan = scanAt(view == 0 ? ref.t_ns : frame.t_ns);
       if (!scan) continue;
-      const auto beams = projectScan(*scan, setup_.camera, T_C_L, options_.lidar_edge_step,
-                                     options_.lidar_edge_neighbours);
+      const auto beams = usableBeams(*scan);
       const auto& observations = view == 0 ? toVector(ref.obs) : frame.observations;
       for (const BeamMatch& m : associateBeams(beams, observations, options_.lidar_radius_px)) {
         auto it = point_of.find(m.track_id);

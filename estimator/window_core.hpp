@@ -14,7 +14,9 @@
 #include "estimator/estimator.hpp"
 #include "estimator/ground_plane.hpp"
 #include "estimator/gyro_buffer.hpp"
+#include "estimator/lidar_scale.hpp"
 #include "estimator/window_init.hpp"
+#include "estimator/window_lidar.hpp"
 #include "estimator/window_map.hpp"
 #include "estimator/window_options.hpp"
 #include "estimator/window_problem.hpp"
@@ -90,6 +92,13 @@ class WindowCore {
                         const std::vector<TrackObservation>& candidates,
                         const std::unordered_map<TrackId, TrackObservation>* keep);
   std::vector<LidarAssociation> lidarCandidates(const VisualFrame& frame) const;
+  // The scan's beams on smooth surfaces, in the image (to pair with features by their pixel).
+  std::vector<BeamInImage> usableBeams(const LidarScan& scan) const;
+  // The scan-plane distance to compare with the landmark seen as `o` for the scan's range r at its
+  // azimuth phi: r itself, or where a ground beam ends (isGroundBeam) the distance at which the
+  // observation's ray meets the ground plane (body up) through the beam end, as
+  // lidar_ground_beams says (nullopt: skipped, or the ray does not go down to it).
+  std::optional<double> rangeForLandmark(const TrackObservation& o, double phi, double r) const;
   void triangulateNewLandmarks(Keyframe& kf);
   void associateLidar(Keyframe& kf, bool gate_depth);
   void solveWindow();

@@ -52,6 +52,17 @@ std::optional<double> interpolateRange(const LidarScan& scan, double phi_rad,
   return (1.0 - a) * scan.ranges_m[i0] + a * scan.ranges_m[i0 + 1];
 }
 
+std::optional<double> groundRangeAlongRay(const Vec3& hit_L, const Vec3& up_L, const Vec3& c_L,
+                                          const Vec3& b_L) {
+  const Vec3 b = b_L.normalized();
+  const double nb = up_L.dot(b);
+  if (!(nb < -0.02)) return std::nullopt;
+  const double s = up_L.dot(hit_L - c_L) / nb;
+  if (!(s > 0.0)) return std::nullopt;
+  const double d = (c_L + s * b).head<2>().norm();
+  return std::isfinite(d) ? std::optional<double>(d) : std::nullopt;
+}
+
 std::vector<BeamMatch> associateBeams(const std::vector<BeamInImage>& beams,
                                       const std::vector<TrackObservation>& observations,
                                       double radius_px) {

@@ -33,6 +33,14 @@ std::vector<BeamInImage> projectScan(const LidarScan& scan, const camera::Camera
 std::optional<double> interpolateRange(const LidarScan& scan, double phi_rad,
                                        double max_step_fraction, int neighbours);
 
+/// The scan-plane (x-y) distance of the point where the ray c_L + s b_L (s > 0) meets the plane
+/// through hit_L with normal up_L: the range to compare with a landmark seen along b_L near a beam
+/// that ends on the ground (isGroundBeam). A pitched LiDAR meets the ground at a grazing angle,
+/// so the beam's own range is far off for a point a fraction of a degree off the scan plane.
+/// nullopt when the ray does not go down to the plane (b_L . up_L > -0.02).
+std::optional<double> groundRangeAlongRay(const Vec3& hit_L, const Vec3& up_L, const Vec3& c_L,
+                                          const Vec3& b_L);
+
 /// A beam paired with an observation (nearest within radius_px; each track used once, by its
 /// nearest beam).
 struct BeamMatch {

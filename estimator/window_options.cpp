@@ -35,6 +35,8 @@ WindowOptions readWindowOptions(const Config& c) {
       c.getInRange(p + "bearing_huber_sigmas", o.bearing_huber_sigmas, 0.1, 100.0);
   o.lidar_range_sigma_m =
       c.getInRange(p + "lidar_range_sigma_m", o.lidar_range_sigma_m, -1.0, 10.0);
+  o.lidar_association_sigma_m =
+      c.getInRange(p + "lidar_association_sigma_m", o.lidar_association_sigma_m, 0.0, 10.0);
   o.lidar_huber_sigmas = c.getInRange(p + "lidar_huber_sigmas", o.lidar_huber_sigmas, 0.1, 100.0);
   o.gyro_bias_random_walk =
       c.getInRange(p + "gyro_bias_random_walk", o.gyro_bias_random_walk, -1.0, 1.0);
@@ -53,6 +55,8 @@ WindowOptions readWindowOptions(const Config& c) {
   o.lidar_depth_gate = c.getInRange(p + "lidar_depth_gate", o.lidar_depth_gate, 0.0, 10.0);
   o.lidar_edge_step = c.getInRange(p + "lidar_edge_step", o.lidar_edge_step, 0.0, 10.0);
   o.lidar_interpolate = c.get<bool>(p + "lidar_interpolate", o.lidar_interpolate);
+  o.lidar_ground_beams =
+      c.getChoice(p + "lidar_ground_beams", o.lidar_ground_beams, {"plane", "skip", "raw"});
   o.lidar_max_elevation_deg =
       c.getInRange(p + "lidar_max_elevation_deg", o.lidar_max_elevation_deg, 0.0, 45.0);
   o.lidar_outlier_sigmas =

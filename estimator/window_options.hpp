@@ -41,6 +41,8 @@ struct WindowOptions {
                                 // simulated rows: 0.38 px after 1 frame, 0.9 after 10, 1.8 after
                                 // 40): added to the bearing sigma between anchor and observation
   double lidar_range_sigma_m = -1.0;          // LiDAR range noise, m; < 0: the rig's value
+  double lidar_association_sigma_m = 0.0;     // added in quadrature to the range noise: a
+                                              // landmark off the scan plane, on foliage, m
   double lidar_huber_sigmas = 2.0;            // robust loss threshold of LiDAR factors, sigmas
   double gyro_bias_random_walk = -1.0;        // rad/s^2/sqrt(Hz); < 0: the rig's value
   double gyro_bias_prior_sigma_radps = 0.02;  // prior on the first keyframe's bias, rad/s
@@ -62,20 +64,28 @@ struct WindowOptions {
                                            // within twice that
 
   // LiDAR association.
-  double lidar_radius_px = 4.0;          // beam end point to observation, px
-  double lidar_depth_gate = 0.25;        // relative depth agreement once the scale is set
-  double lidar_edge_step = 0.05;         // beams used only on smooth surfaces: adjacent ranges
-                                         // differ by less than this fraction of the range
-  int lidar_edge_neighbours = 2;         // ... over this many beams on each side (0: off)
-  bool lidar_interpolate = true;         // associate landmarks near the scan plane with the range
-  double lidar_max_elevation_deg = 1.0;  // interpolated at their azimuth (false: nearest beam end
-                                         // within lidar_radius_px); elevation gate, deg
-  double lidar_outlier_sigmas = 3.0;     // after a solve an association is removed when its
-  double lidar_outlier_fraction = 0.05;  // residual exceeds this many sigmas and this fraction
-                                         // of the range
-  std::string lidar_loss = "huber";      // robust loss of LiDAR factors: huber | cauchy
-  double lidar_scan_time_tol_s = 0.004;  // a scan belongs to a frame within this time, s
-  int lidar_min_associations = 8;        // fewer (or disagreeing) at initialisation: ground plane
+  double lidar_radius_px = 4.0;            // beam end point to observation, px
+  double lidar_depth_gate = 0.25;          // relative depth agreement once the scale is set
+  double lidar_edge_step = 0.05;           // beams used only on smooth surfaces: adjacent ranges
+                                           // differ by less than this fraction of the range
+  int lidar_edge_neighbours = 2;           // ... over this many beams on each side (0: off)
+  std::string lidar_ground_beams = "raw";  // beams ending on the ground (0.7 camera heights
+                                           // below the camera; needs the rig's camera height)
+                                           // meet it grazing, so their range hangs on the
+                                           // elevation. raw: the beam's range; skip: not used
+                                           // (loses scale: measured worse); plane: the range
+                                           // where the landmark's observed ray meets the ground
+                                           // plane through the beam end (experimental: its
+                                           // error is the bearing's, ~30x at 5 m)
+  bool lidar_interpolate = true;           // associate landmarks near the scan plane with the range
+  double lidar_max_elevation_deg = 1.0;    // interpolated at their azimuth (false: nearest beam end
+                                           // within lidar_radius_px); elevation gate, deg
+  double lidar_outlier_sigmas = 3.0;       // after a solve an association is removed when its
+  double lidar_outlier_fraction = 0.05;    // residual exceeds this many sigmas and this fraction
+                                           // of the range
+  std::string lidar_loss = "huber";        // robust loss of LiDAR factors: huber | cauchy
+  double lidar_scan_time_tol_s = 0.004;    // a scan belongs to a frame within this time, s
+  int lidar_min_associations = 8;          // fewer (or disagreeing) at initialisation: ground plane
 
   // Initialisation.
   double init_parallax_deg = 1.5;  // rotation-compensated median parallax to initialise, deg
