@@ -90,6 +90,7 @@ WindowCore::WindowCore(const SensorSetup& setup, const WindowOptions& options,
   model_.bearing_sigma_rad = pixel_sigma / camera::focalPx(setup.camera);
   model_.bearing_huber = options.bearing_huber_sigmas;
   model_.bearing_creep_rad = options.track_creep_px / camera::focalPx(setup.camera);
+  model_.lidar_ground_sigma_m = options.lidar_ground_sigma_m;
   model_.lidar_sigma_m = std::hypot(
       options.lidar_range_sigma_m > 0.0 ? options.lidar_range_sigma_m : setup.lidar_range_sigma_m,
       options.lidar_association_sigma_m);
@@ -473,17 +474,14 @@ std::vector<BeamInImage> WindowCore::usableBeams(const LidarScan& scan) const {
                      options_.lidar_edge_step, options_.lidar_edge_neighbours);
 }
 
-std::optional<double> WindowCore::rangeForLandmark(const TrackObservation& o, double phi,
-                                                   double r) const {
-  if (options_.lidar_ground_beams == "raw" || !setup_.camera_height_m) return r;
-  const SE3 T_C_L = cameraFromLidar(setup_.T_B_C, setup_.T_B_L);
-  const Vec3 hit_L(r * std::cos(phi), r * std::sin(phi), 0.0);
+std::optional<Vec3> WindowCore::groundUpAtBeamEnd(const Vec3& hit_L) const {
+  if (options_.lidar_ground_beams == "raw" || !setup_.camera_height_m) return std::nullopt;
+  const Mat3 R_B_L = setup_.T_B_L.rotation();
   const Vec3 up_C = setup_.T_B_C.rotation().transpose() * Vec3::UnitZ();
-  if (!isGroundBeam(T_C_L * hit_L, up_C, *setup_.camera_height_m)) return r;
-  if (options_.lidar_ground_beams == "skip") return std::nullopt;
-  const SE3 T_L_C = T_C_L.inverse();
-  return groundRangeAlongRay(hit_L, T_L_C.rotation() * up_C, T_L_C.translation(),
-                             T_L_C.rotation() * o.bearing_C);
+  if (!isGroundBeam(cameraFromLidar(setup_.T_B_C, setup_.T_B_L) * hit_L, up_C,
+                    *setup_.camera_height_m))
+    return std::nullopt;
+  return R_B_L.transpose() * Vec3::UnitZ();
 }
 
 Keyframe* WindowCore::addKeyframe(Timestamp t_ns, const SE3& T_W_B, const Vec3& bias,
@@ -574,10 +572,24 @@ void WindowCore::associateLidar(Keyframe& kf, bool gate_depth) {
       const double phi = std::atan2(p_L.y(), p_L.x());
       const auto r =
           interpolateRange(*kf.scan, phi, options_.lidar_edge_step, options_.lidar_edge_neighbours);
-      const auto range = r ? rangeForLandmark(o, phi, *r) : std::nullopt;
-      if (!range || (gate_depth && std::abs(d_xy - *range) > options_.lidar_depth_gate * *range))
+      if (!r) continue;
+      LidarAssociation a{id, *r, true};
+      double gate_range = *r;  // what the landmark's distance must agree with
+      const Vec3 hit_L(*r * std::cos(phi), *r * std::sin(phi), 0.0);
+      if (const auto up_L = groundUpAtBeamEnd(hit_L)) {
+        if (options_.lidar_ground_beams == "skip") continue;
+        // plane: the landmark on the ground plane through the beam end; its distance for the
+        // gate where the observed ray meets that plane.
+        const SE3 T_L_C = cameraFromLidar(setup_.T_B_C, setup_.T_B_L).inverse();
+        const auto d =
+            groundRangeAlongRay(hit_L, *up_L, T_L_C.translation(), T_L_C.rotation() * o.bearing_C);
+        if (!d) continue;
+        gate_range = *d;
+        a = {id, up_L->dot(hit_L), false, *up_L};
+      }
+      if (gate_depth && std::abs(d_xy - gate_range) > options_.lidar_depth_gate * gate_range)
         continue;
-      kf.lidar.push_back({id, *range, true});
+      kf.lidar.push_back(a);
     }
     return;
   }
@@ -641,7 +653,8 @@ void WindowCore::removeOutliers() {
       const bool outlier =
           !p_W ||
           lidarRangeDisagrees(a, *p_W, T_L_W, options_.lidar_outlier_sigmas * model_.lidar_sigma_m,
-                              options_.lidar_outlier_fraction);
+                              options_.lidar_outlier_fraction,
+                              options_.lidar_outlier_sigmas * model_.lidar_ground_sigma_m);
       if (outlier) kf->lidar_rejected.insert(a.track_id);
       return outlier;
     });

@@ -94,11 +94,9 @@ class WindowCore {
   std::vector<LidarAssociation> lidarCandidates(const VisualFrame& frame) const;
   // The scan's beams on smooth surfaces, in the image (to pair with features by their pixel).
   std::vector<BeamInImage> usableBeams(const LidarScan& scan) const;
-  // The scan-plane distance to compare with the landmark seen as `o` for the scan's range r at its
-  // azimuth phi: r itself, or where a ground beam ends (isGroundBeam) the distance at which the
-  // observation's ray meets the ground plane (body up) through the beam end, as
-  // lidar_ground_beams says (nullopt: skipped, or the ray does not go down to it).
-  std::optional<double> rangeForLandmark(const TrackObservation& o, double phi, double r) const;
+  // The ground normal (body up, in L) when the scan-plane point hit_L is a ground beam's end
+  // (isGroundBeam) and lidar_ground_beams is not raw; nullopt otherwise.
+  std::optional<Vec3> groundUpAtBeamEnd(const Vec3& hit_L) const;
   void triangulateNewLandmarks(Keyframe& kf);
   void associateLidar(Keyframe& kf, bool gate_depth);
   void solveWindow();

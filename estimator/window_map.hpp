@@ -40,6 +40,8 @@ struct LidarAssociation {
   TrackId track_id = 0;
   double range_m = 0.0;
   bool planar = false;  // range interpolated at the landmark's azimuth: compare in the scan plane
+  Vec3 ground_up_L = Vec3::Zero();  // non-zero: a ground beam's end; the landmark lies on the
+                                    // ground plane up_L . p_L = range_m (lidar_ground_beams plane)
 };
 
 /// A keyframe: its states (Ceres blocks) and what it observed.

@@ -55,6 +55,8 @@ WindowOptions readWindowOptions(const Config& c) {
   o.lidar_depth_gate = c.getInRange(p + "lidar_depth_gate", o.lidar_depth_gate, 0.0, 10.0);
   o.lidar_edge_step = c.getInRange(p + "lidar_edge_step", o.lidar_edge_step, 0.0, 10.0);
   o.lidar_interpolate = c.get<bool>(p + "lidar_interpolate", o.lidar_interpolate);
+  o.lidar_ground_sigma_m =
+      c.getInRange(p + "lidar_ground_sigma_m", o.lidar_ground_sigma_m, 1e-4, 10.0);
   o.lidar_ground_beams =
       c.getChoice(p + "lidar_ground_beams", o.lidar_ground_beams, {"plane", "skip", "raw"});
   o.lidar_max_elevation_deg =

@@ -73,10 +73,10 @@ struct WindowOptions {
                                            // below the camera; needs the rig's camera height)
                                            // meet it grazing, so their range hangs on the
                                            // elevation. raw: the beam's range; skip: not used
-                                           // (loses scale: measured worse); plane: the range
-                                           // where the landmark's observed ray meets the ground
-                                           // plane through the beam end (experimental: its
-                                           // error is the bearing's, ~30x at 5 m)
+                                           // (loses scale: measured worse); plane: the landmark
+                                           // lies on the ground plane (body up) through the
+                                           // beam end, its height off it lidar_ground_sigma_m
+  double lidar_ground_sigma_m = 0.02;      // ... that height's noise, m
   bool lidar_interpolate = true;           // associate landmarks near the scan plane with the range
   double lidar_max_elevation_deg = 1.0;    // interpolated at their azimuth (false: nearest beam end
                                            // within lidar_radius_px); elevation gate, deg

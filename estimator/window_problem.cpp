@@ -90,16 +90,18 @@ std::vector<FactorSpec> buildFactors(const std::vector<Keyframe*>& keyframes,
         f.loss = std::make_unique<ceres::CauchyLoss>(model.lidar_huber);
       else
         f.loss = std::make_unique<ceres::HuberLoss>(model.lidar_huber);
+      const double sigma =
+          a.ground_up_L.isZero() ? model.lidar_sigma_m : model.lidar_ground_sigma_m;
       if (anchor_it->second == kf) {
         f.cost = std::make_unique<factors::LidarRangeAnchorFactor>(lm.bearing_anchor_C, a.range_m,
-                                                                   model.T_B_C, model.T_B_L,
-                                                                   model.lidar_sigma_m, a.planar);
+                                                                   model.T_B_C, model.T_B_L, sigma,
+                                                                   a.planar, a.ground_up_L);
         f.blocks = {lm.rho};
       } else {
         Keyframe* anchor = anchor_it->second;
-        f.cost =
-            std::make_unique<factors::LidarRangeFactor>(lm.bearing_anchor_C, a.range_m, model.T_B_C,
-                                                        model.T_B_L, model.lidar_sigma_m, a.planar);
+        f.cost = std::make_unique<factors::LidarRangeFactor>(lm.bearing_anchor_C, a.range_m,
+                                                             model.T_B_C, model.T_B_L, sigma,
+                                                             a.planar, a.ground_up_L);
         f.blocks = {anchor->q_W_B, anchor->p_W_B, kf->q_W_B, kf->p_W_B, lm.rho};
       }
       f.track = a.track_id;
@@ -252,8 +254,9 @@ SolveSummary solveFactors(std::vector<FactorSpec> factors, const std::vector<Key
 }
 
 bool lidarRangeDisagrees(const LidarAssociation& a, const Vec3& p_W, const SE3& T_L_W,
-                         double gate_m, double gate_fraction) {
+                         double gate_m, double gate_fraction, double ground_gate_m) {
   Vec3 p_L = T_L_W * p_W;
+  if (!a.ground_up_L.isZero()) return std::abs(a.ground_up_L.dot(p_L) - a.range_m) > ground_gate_m;
   if (a.planar) p_L.z() = 0.0;
   return std::abs(p_L.norm() - a.range_m) > std::max(gate_m, gate_fraction * a.range_m);
 }

@@ -45,7 +45,8 @@ struct WindowModel {
   double bearing_huber = 2.0;              // Huber threshold on the whitened residual (sigmas)
   double bearing_creep_rad = 0.0;  // track creep per sqrt(frame) between anchor and observation
   double lidar_sigma_m = 0.02;
-  double lidar_huber = 2.0;          // robust loss threshold on the whitened residual (sigmas)
+  double lidar_ground_sigma_m = 0.02;  // height of a landmark on a ground beam's plane, m
+  double lidar_huber = 2.0;            // robust loss threshold on the whitened residual (sigmas)
   bool lidar_cauchy = false;         // Cauchy (an association far off pulls ever less), else Huber
   double bias_random_walk = 2.0e-5;  // rad/s^2/sqrt(Hz)
   double bias_prior_sigma_radps = 0.02;
@@ -128,9 +129,10 @@ std::vector<ObservationError> observationErrors(const std::vector<Keyframe*>& ke
 
 /// True when the range a LiDAR association measured and the range to the landmark point p_W,
 /// seen from the scan's pose T_L_W (in the scan plane when planar), differ by more than
-/// max(gate_m, gate_fraction * range).
+/// max(gate_m, gate_fraction * range); for a ground-plane association, when the landmark's height
+/// off that plane exceeds ground_gate_m.
 bool lidarRangeDisagrees(const LidarAssociation& a, const Vec3& p_W, const SE3& T_L_W,
-                         double gate_m, double gate_fraction);
+                         double gate_m, double gate_fraction, double ground_gate_m);
 
 /// Re-propagates the gyro preintegrations (keyframes in time order) whose bias linearisation is
 /// now more than 0.002 rad/s from the previous keyframe's estimate.

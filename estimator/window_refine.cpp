@@ -243,7 +243,8 @@ RefineInfo refineKeyframes(const std::vector<Keyframe*>& keyframes,
                          (model.T_B_C * (lm->second.bearing_anchor_C / lm->second.rho[0]));
         return lidarRangeDisagrees(a, p_W, T_L_W,
                                    options.lidar_outlier_sigmas * model.lidar_sigma_m,
-                                   options.lidar_outlier_fraction);
+                                   options.lidar_outlier_fraction,
+                                   options.lidar_outlier_sigmas * model.lidar_ground_sigma_m);
       });
     }
     if (options.refine_ground) labelGroundLandmarks(landmarks, model, options, ground_options);

@@ -7,10 +7,28 @@ namespace ovo::factors {
 namespace {
 constexpr double kMinInverseDepth = 1e-6;  // 1/m: 1000 km
 constexpr double kMinDistance = 1e-9;      // m
+// What the association measures of the landmark point p_L, and its gradient d value / d p_L: the
+// height up . p_L on a ground plane (up non-zero), else the distance (in the scan plane when
+// planar). False when the distance vanishes.
+bool measure(Vec3 p_L, bool planar, const Vec3& up, double* value, Eigen::RowVector3d* grad) {
+  if (!up.isZero()) {
+    *value = up.dot(p_L);
+    *grad = up.transpose();
+    return true;
+  }
+  if (planar) p_L.z() = 0.0;  // the distance in the scan plane; its gradient has no z part
+  const double d = p_L.norm();
+  if (!(d > kMinDistance)) return false;
+  *value = d;
+  *grad = (p_L / d).transpose();
+  return true;
+}
+
 }  // namespace
 
 LidarRangeFactor::LidarRangeFactor(const Vec3& bearing_Ca, double range_m, const SE3& T_B_C,
-                                   const SE3& T_B_L, double sigma_m, bool planar)
+                                   const SE3& T_B_L, double sigma_m, bool planar,
+                                   const Vec3& ground_up_L)
     : bearing_Ca_(bearing_Ca.normalized()),
       range_m_(range_m),
       inv_sigma_(1.0 / sigma_m),
@@ -18,7 +36,8 @@ LidarRangeFactor::LidarRangeFactor(const Vec3& bearing_Ca, double range_m, const
       R_L_B_(T_B_L.rotation().transpose()),
       t_B_C_(T_B_C.translation()),
       t_B_L_(T_B_L.translation()),
-      planar_(planar) {}
+      planar_(planar),
+      ground_up_L_(ground_up_L) {}
 
 bool LidarRangeFactor::Evaluate(double const* const* parameters, double* residuals,
                                 double** jacobians) const {
@@ -34,14 +53,14 @@ bool LidarRangeFactor::Evaluate(double const* const* parameters, double* residua
   const Vec3 Rp_W = R_W_Ba * p_Ba;
   const Vec3 p_W = Rp_W + p_a;
   const Mat3 R_L_W = R_L_B_ * R_W_Bk.transpose();
-  Vec3 p_L = R_L_W * (p_W - p_k) - R_L_B_ * t_B_L_;
-  if (planar_) p_L.z() = 0.0;  // the distance in the scan plane; its gradient has no z part
-  const double d = p_L.norm();
-  if (!(d > kMinDistance)) return false;
-  residuals[0] = (d - range_m_) * inv_sigma_;
+  const Vec3 p_L = R_L_W * (p_W - p_k) - R_L_B_ * t_B_L_;
+  double value;
+  Eigen::RowVector3d grad;
+  if (!measure(p_L, planar_, ground_up_L_, &value, &grad)) return false;
+  residuals[0] = (value - range_m_) * inv_sigma_;
   if (!jacobians) return true;
 
-  const Eigen::RowVector3d dr_dpW = inv_sigma_ * (p_L / d).transpose() * R_L_W;  // dr/dp_W
+  const Eigen::RowVector3d dr_dpW = inv_sigma_ * grad * R_L_W;  // dr/dp_W
   if (jacobians[0]) {
     const Eigen::RowVector3d J_theta = dr_dpW * (-so3::hat(Rp_W));
     rotationJacobianToAmbient<1>(J_theta, q_a, jacobians[0]);
@@ -58,8 +77,8 @@ bool LidarRangeFactor::Evaluate(double const* const* parameters, double* residua
 
 LidarRangeAnchorFactor::LidarRangeAnchorFactor(const Vec3& bearing_Ca, double range_m,
                                                const SE3& T_B_C, const SE3& T_B_L, double sigma_m,
-                                               bool planar)
-    : range_m_(range_m), inv_sigma_(1.0 / sigma_m), planar_(planar) {
+                                               bool planar, const Vec3& ground_up_L)
+    : range_m_(range_m), inv_sigma_(1.0 / sigma_m), planar_(planar), ground_up_L_(ground_up_L) {
   const SE3 T_L_C = T_B_L.inverse() * T_B_C;
   bearing_L_ = T_L_C.rotation() * bearing_Ca.normalized();
   t_L_C_ = T_L_C.translation();
@@ -69,13 +88,12 @@ bool LidarRangeAnchorFactor::Evaluate(double const* const* parameters, double* r
                                       double** jacobians) const {
   const double rho = parameters[0][0];
   if (!(rho > kMinInverseDepth)) return false;
-  Vec3 p_L = bearing_L_ / rho + t_L_C_;
-  if (planar_) p_L.z() = 0.0;
-  const double d = p_L.norm();
-  if (!(d > kMinDistance)) return false;
-  residuals[0] = (d - range_m_) * inv_sigma_;
+  double value;
+  Eigen::RowVector3d grad;
+  if (!measure(bearing_L_ / rho + t_L_C_, planar_, ground_up_L_, &value, &grad)) return false;
+  residuals[0] = (value - range_m_) * inv_sigma_;
   if (jacobians && jacobians[0])
-    jacobians[0][0] = inv_sigma_ * (p_L / d).dot(bearing_L_) * (-1.0 / (rho * rho));
+    jacobians[0][0] = inv_sigma_ * grad.dot(bearing_L_) * (-1.0 / (rho * rho));
   return true;
 }
 

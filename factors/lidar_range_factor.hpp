@@ -18,10 +18,12 @@ namespace ovo::factors {
 /// When a == k use LidarRangeAnchorFactor (Ceres forbids one block twice in a residual).
 /// planar: the distance in the scan plane, ||(p_L.x, p_L.y)||, for a range interpolated between
 /// the beams at the landmark's azimuth (a landmark just off the plane on an upright surface).
+/// ground_up_L non-zero (unit): the landmark lies on the ground through a beam end instead,
+///   r_res = (up_L . p_L - h) / sigma,  h = up_L . (beam end): range_m carries h (m, negative).
 class LidarRangeFactor final : public ceres::SizedCostFunction<1, 4, 3, 4, 3, 1> {
  public:
   LidarRangeFactor(const Vec3& bearing_Ca, double range_m, const SE3& T_B_C, const SE3& T_B_L,
-                   double sigma_m, bool planar = false);
+                   double sigma_m, bool planar = false, const Vec3& ground_up_L = Vec3::Zero());
   bool Evaluate(double const* const* parameters, double* residuals,
                 double** jacobians) const override;
 
@@ -31,6 +33,7 @@ class LidarRangeFactor final : public ceres::SizedCostFunction<1, 4, 3, 4, 3, 1>
   Mat3 R_B_C_, R_L_B_;
   Vec3 t_B_C_, t_B_L_;
   bool planar_;
+  Vec3 ground_up_L_;
 };
 
 /// The same beam when the scan keyframe is the landmark's anchor: the residual depends on rho only,
@@ -38,7 +41,8 @@ class LidarRangeFactor final : public ceres::SizedCostFunction<1, 4, 3, 4, 3, 1>
 class LidarRangeAnchorFactor final : public ceres::SizedCostFunction<1, 1> {
  public:
   LidarRangeAnchorFactor(const Vec3& bearing_Ca, double range_m, const SE3& T_B_C, const SE3& T_B_L,
-                         double sigma_m, bool planar = false);
+                         double sigma_m, bool planar = false,
+                         const Vec3& ground_up_L = Vec3::Zero());
   bool Evaluate(double const* const* parameters, double* residuals,
                 double** jacobians) const override;
 
@@ -47,6 +51,7 @@ class LidarRangeAnchorFactor final : public ceres::SizedCostFunction<1, 1> {
   Vec3 t_L_C_;
   double range_m_, inv_sigma_;
   bool planar_;
+  Vec3 ground_up_L_;
 };
 
 }  // namespace ovo::factors

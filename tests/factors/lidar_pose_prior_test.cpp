@@ -104,6 +104,28 @@ TEST(LidarRangeFactor, PlanarMeasuresTheDistanceInTheScanPlane) {
   }
 }
 
+TEST(LidarRangeFactor, OnAGroundBeamMeasuresTheHeightOffThePlaneThroughItsEnd) {
+  std::mt19937 rng(17);
+  for (int trial = 0; trial < 5; ++trial) {
+    const RangeScene s = randomRangeScene(rng, 3.0 + trial);
+    const Vec3 p_L = (s.T_W_Bk * s.T_B_L).inverse() * (s.T_W_Ba * s.T_B_C * (s.bearing_Ca / s.rho));
+    const Vec3 up_L = testing::randomVec(rng).normalized();
+    // The beam ended on a plane 0.04 m below the landmark: residual +0.04 / sigma.
+    const double h = up_L.dot(p_L) - 0.04;
+    const double sigma = 0.02;
+    const LidarRangeFactor ground(s.bearing_Ca, h, s.T_B_C, s.T_B_L, sigma, true, up_L);
+    EXPECT_NEAR(testing::evaluate(ground, blocksOf(s))[0], 0.04 / sigma, 1e-8);
+    testing::expectJacobiansMatch(ground, blocksOf(s), {true, false, true, false, false}, 1e-6);
+    RangeScene at_anchor = s;
+    at_anchor.T_W_Bk = s.T_W_Ba;
+    const LidarRangeFactor general(s.bearing_Ca, -0.6, s.T_B_C, s.T_B_L, sigma, false, up_L);
+    const LidarRangeAnchorFactor anchor(s.bearing_Ca, -0.6, s.T_B_C, s.T_B_L, sigma, false, up_L);
+    EXPECT_NEAR(testing::evaluate(anchor, {{s.rho}})[0],
+                testing::evaluate(general, blocksOf(at_anchor))[0], 1e-9);
+    testing::expectJacobiansMatch(anchor, {{s.rho}}, {false}, 1e-6);
+  }
+}
+
 TEST(PosePriorFactor, ZeroAtPriorAndJacobiansMatchNumeric) {
   std::mt19937 rng(15);
   const SE3 T0 = testing::randomPose(rng);
