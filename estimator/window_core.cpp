@@ -474,16 +474,6 @@ std::vector<BeamInImage> WindowCore::usableBeams(const LidarScan& scan) const {
                      options_.lidar_edge_step, options_.lidar_edge_neighbours);
 }
 
-std::optional<Vec3> WindowCore::groundUpAtBeamEnd(const Vec3& hit_L) const {
-  if (options_.lidar_ground_beams == "raw" || !setup_.camera_height_m) return std::nullopt;
-  const Mat3 R_B_L = setup_.T_B_L.rotation();
-  const Vec3 up_C = setup_.T_B_C.rotation().transpose() * Vec3::UnitZ();
-  if (!isGroundBeam(cameraFromLidar(setup_.T_B_C, setup_.T_B_L) * hit_L, up_C,
-                    *setup_.camera_height_m))
-    return std::nullopt;
-  return R_B_L.transpose() * Vec3::UnitZ();
-}
-
 Keyframe* WindowCore::addKeyframe(Timestamp t_ns, const SE3& T_W_B, const Vec3& bias,
                                   const std::vector<TrackObservation>& candidates,
                                   const std::unordered_map<TrackId, TrackObservation>* keep) {
@@ -562,6 +552,15 @@ void WindowCore::associateLidar(Keyframe& kf, bool gate_depth) {
     // plane: the scan's range interpolated at its azimuth (no pixel-radius offset along the scan).
     if (!kf.scan) return;
     const double max_tan_elevation = std::tan(options_.lidar_max_elevation_deg * kDegToRad);
+    // Ground beams (isGroundBeam) are told apart unless lidar_ground_beams is raw.
+    const double ground_height = options_.lidar_ground_beams != "raw" && setup_.camera_height_m
+                                     ? *setup_.camera_height_m
+                                     : 0.0;
+    const bool skip_ground = options_.lidar_ground_beams == "skip";
+    const SE3 T_C_L = cameraFromLidar(setup_.T_B_C, setup_.T_B_L);
+    const SE3 T_L_C = T_C_L.inverse();
+    const Vec3 up_C = setup_.T_B_C.rotation().transpose() * Vec3::UnitZ();
+    const Vec3 up_L = setup_.T_B_L.rotation().transpose() * Vec3::UnitZ();
     for (const auto& [id, o] : kf.observations) {
       if (have.count(id) || kf.lidar_rejected.count(id)) continue;
       const auto p_W = map_.pointW(id, setup_.T_B_C);
@@ -576,16 +575,15 @@ void WindowCore::associateLidar(Keyframe& kf, bool gate_depth) {
       LidarAssociation a{id, *r, true};
       double gate_range = *r;  // what the landmark's distance must agree with
       const Vec3 hit_L(*r * std::cos(phi), *r * std::sin(phi), 0.0);
-      if (const auto up_L = groundUpAtBeamEnd(hit_L)) {
-        if (options_.lidar_ground_beams == "skip") continue;
+      if (isGroundBeam(T_C_L * hit_L, up_C, ground_height)) {
+        if (skip_ground) continue;
         // plane: the landmark on the ground plane through the beam end; its distance for the
         // gate where the observed ray meets that plane.
-        const SE3 T_L_C = cameraFromLidar(setup_.T_B_C, setup_.T_B_L).inverse();
         const auto d =
-            groundRangeAlongRay(hit_L, *up_L, T_L_C.translation(), T_L_C.rotation() * o.bearing_C);
+            groundRangeAlongRay(hit_L, up_L, T_L_C.translation(), T_L_C.rotation() * o.bearing_C);
         if (!d) continue;
         gate_range = *d;
-        a = {id, up_L->dot(hit_L), false, *up_L};
+        a = {id, up_L.dot(hit_L), false, up_L};
       }
       if (gate_depth && std::abs(d_xy - gate_range) > options_.lidar_depth_gate * gate_range)
         continue;

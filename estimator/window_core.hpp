@@ -94,9 +94,6 @@ class WindowCore {
   std::vector<LidarAssociation> lidarCandidates(const VisualFrame& frame) const;
   // The scan's beams on smooth surfaces, in the image (to pair with features by their pixel).
   std::vector<BeamInImage> usableBeams(const LidarScan& scan) const;
-  // The ground normal (body up, in L) when the scan-plane point hit_L is a ground beam's end
-  // (isGroundBeam) and lidar_ground_beams is not raw; nullopt otherwise.
-  std::optional<Vec3> groundUpAtBeamEnd(const Vec3& hit_L) const;
   void triangulateNewLandmarks(Keyframe& kf);
   void associateLidar(Keyframe& kf, bool gate_depth);
   void solveWindow();

@@ -69,8 +69,9 @@ struct WindowOptions {
   double lidar_edge_step = 0.05;           // beams used only on smooth surfaces: adjacent ranges
                                            // differ by less than this fraction of the range
   int lidar_edge_neighbours = 2;           // ... over this many beams on each side (0: off)
-  std::string lidar_ground_beams = "raw";  // beams ending on the ground (0.7 camera heights
-                                           // below the camera; needs the rig's camera height)
+  std::string lidar_ground_beams = "raw";  // with lidar_interpolate, beams ending on the ground
+                                           // (0.7 camera heights below the camera; needs the
+                                           // rig's camera height)
                                            // meet it grazing, so their range hangs on the
                                            // elevation. raw: the beam's range; skip: not used
                                            // (loses scale: measured worse); plane: the landmark
