@@ -51,6 +51,12 @@ FrontendOptions readFrontendOptions(const Config& cfg) {
       cfg.get<bool>("frontend.break_tracks_on_outliers", o.break_tracks_on_outliers);
   o.track_epipolar_gate_rad =
       cfg.getInRange("frontend.track_epipolar_gate_rad", o.track_epipolar_gate_rad, 0.0, 1.0);
+  TrackRefineOptions& t = o.track_refine;
+  t.enabled = cfg.get<bool>("frontend.track_refine", t.enabled);
+  t.half_window_px =
+      cfg.getIntInRange("frontend.track_refine_half_window_px", t.half_window_px, 1, 7);
+  t.sigma_px = cfg.getInRange("frontend.track_refine_sigma_px", t.sigma_px, 0.3, 20.0);
+  t.max_shift_px = cfg.getInRange("frontend.track_refine_max_shift_px", t.max_shift_px, 0.0, 10.0);
   return o;
 }
 
@@ -67,6 +73,7 @@ void Frontend::reset() {
   has_prev_ = false;
   tracker_.reset();
   prev_px_.clear();
+  prev_grey_.release();
   prev_bearing_.clear();
 }
 
@@ -151,9 +158,15 @@ FrontendResult Frontend::process(Timestamp t_ns, const cv::Mat& grey,
     px[j] = cur_.pixel(j, refined);
     cls[j] = static_cast<int>(cur_.features[j].cls);
   }
+  const bool refine_steps = options_.track_refine.enabled && !prev_grey_.empty();
   for (const Match& m : matches) {
     px[m.cur] = prev_px_[m.prev] + (m.px_cur - m.px_prev);
     prev_index[m.cur] = m.prev;
+    if (refine_steps) {
+      if (const auto x = refineTrackStep(prev_grey_, prev_px_[m.prev], grey, px[m.cur],
+                                         options_.track_refine))
+        px[m.cur] = *x;
+    }
   }
   std::vector<Vec3> bearings(cur_.size());
   for (int j = 0; j < cur_.size(); ++j) {
@@ -213,6 +226,7 @@ FrontendResult Frontend::process(Timestamp t_ns, const cv::Mat& grey,
   for (const int k : used_matches) fm.track_ids.push_back(ids[matches[k].cur]);
   result.observations = tracker_.currentObservations();
   std::swap(prev_, cur_);
+  if (options_.track_refine.enabled) grey.copyTo(prev_grey_);
   prev_px_ = std::move(px);
   prev_bearing_ = std::move(bearings);
   has_prev_ = true;
