@@ -6,8 +6,9 @@
 // Measured on a rendered row (ground tracks against the simulator's geometry, 8 s): the one-frame
 // flow error falls from 0.20 to 0.16 px (flows of 4-8 px) and from 0.14 to 0.10 px (over 8 px).
 // Far ground points (flows of 0.5-2 px) keep a bias of +4 to +8 % along the flow with or without
-// it, for any patch size: it comes from the points next to a depth edge, which step ~0.25 px too
-// far every frame (TrackDrift.CleanGroundStepsAreUnbiasedAlongTheFlow); this does not fix them.
+// it, for any patch size: it comes from the points next to a depth edge, whose patches move partly
+// with the nearer surface (TrackDrift.CleanGroundStepsAreUnbiasedAlongTheFlow); this does not
+// fix them.
 #pragma once
 
 #include <opencv2/core.hpp>

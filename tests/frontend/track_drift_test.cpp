@@ -184,9 +184,12 @@ StepBias measureStepBias() {
 }
 
 // The steps of clean ground tracks carry no bias along the flow (a sub-pixel estimator that
-// locks to integers would). Those next to a depth edge step +0.24 to +0.30 px too far every
-// frame (measured; printed, not asserted): they are what turns slow far flow into a pitch rate
-// in every estimator, and they are still in the tracks.
+// locks to integers would). Those next to a depth edge step +0.24 to +0.30 px further than their
+// ground point every frame (measured; printed, not asserted): a temporary measurement put them
+// between the ground point's motion and the nearer surface's (median 0.7 of the way), so no
+// single point explains such a track. They are the far ground's whole flow bias; that they cause
+// the steady pitch drift of vo and the window on the rows is likely but not shown. Their patches
+// match as well as clean ones (same normalised residual), so a residual test cannot find them.
 TEST(TrackDrift, CleanGroundStepsAreUnbiasedAlongTheFlow) {
   const StepBias s = measureStepBias();
   const char* band[3] = {"0.5-1", "1-2", "2-4"};
