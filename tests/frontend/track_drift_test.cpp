@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <functional>
 #include <map>
 #include <memory>
 #include <optional>
@@ -57,6 +58,35 @@ const RenderedRow& renderedRow() {
   return row;
 }
 
+// Runs the frontend over the rendered row from frame 10 (true rotation as its prior) and hands
+// each frame's time, true camera pose and result to f.
+void forEachFrame(const RenderedRow& row, Frontend& frontend,
+                  const std::function<void(double, const SE3&, const FrontendResult&)>& f) {
+  const sim::Simulation& sim = *row.sim;
+  std::optional<SE3> prev_T_W_C;
+  for (int k = 10; k < sim.frameCount(); ++k) {
+    const double t_s = sim.frameTime(k);
+    const SE3 T_W_C = sim.trajectory().T_W_B(t_s) * sim.T_B_C();
+    std::optional<Mat3> prior;
+    if (prev_T_W_C) prior = T_W_C.linear().transpose() * prev_T_W_C->linear();
+    prev_T_W_C = T_W_C;
+    f(t_s, T_W_C, frontend.process(sim.frameStamp(k), row.frames[k], prior));
+  }
+}
+
+// Where the camera-frame ray d_C first meets an opaque surface (the simulator's geometry).
+std::optional<Vec3> castRay(const sim::Simulation& sim, const SE3& T_W_C, double t_s,
+                            const Vec3& d_C) {
+  const Vec3 d_W = T_W_C.linear() * d_C;
+  const auto t = sim.world().firstOpaqueHit(T_W_C.translation(), d_W, 30.0, t_s);
+  if (!t) return std::nullopt;
+  return Vec3(T_W_C.translation() + *t * d_W);
+}
+
+bool onGround(const sim::Simulation& sim, const Vec3& p_W) {
+  return std::abs(p_W.z() - sim.world().groundHeight(p_W.x(), p_W.y())) < 1e-4;
+}
+
 DriftStats measureDrift(const std::vector<std::string>& frontend_sets) {
   const RenderedRow& row = renderedRow();
   const sim::Simulation& sim = *row.sim;
@@ -66,22 +96,11 @@ DriftStats measureDrift(const std::vector<std::string>& frontend_sets) {
   std::map<std::uint64_t, Vec3> ground_W;  // track -> where its first ray meets the terrain
   std::vector<double> one, ten;
   int far_off = 0;
-  std::optional<SE3> prev_T_W_C;
-  for (int k = 10; k < sim.frameCount(); ++k) {
-    const double t_s = sim.frameTime(k);
-    const SE3 T_W_C = sim.trajectory().T_W_B(t_s) * sim.T_B_C();
-    std::optional<Mat3> prior;
-    if (prev_T_W_C) prior = T_W_C.linear().transpose() * prev_T_W_C->linear();
-    prev_T_W_C = T_W_C;
-    const FrontendResult r = frontend.process(sim.frameStamp(k), row.frames[k], prior);
+  forEachFrame(row, frontend, [&](double t_s, const SE3& T_W_C, const FrontendResult& r) {
     for (const FeatureObservation& o : r.observations) {
       if (o.age == 1) {
-        const Vec3 d_W = T_W_C.linear() * o.bearing_C;
-        const auto hit = sim.world().firstOpaqueHit(T_W_C.translation(), d_W, 30.0, t_s);
-        if (!hit) continue;
-        const Vec3 p_W = T_W_C.translation() + *hit * d_W;
-        if (std::abs(p_W.z() - sim.world().groundHeight(p_W.x(), p_W.y())) < 1e-4)
-          ground_W[o.track_id] = p_W;
+        const auto p_W = castRay(sim, T_W_C, t_s, o.bearing_C);
+        if (p_W && onGround(sim, *p_W)) ground_W[o.track_id] = *p_W;
         continue;
       }
       const auto g = ground_W.find(o.track_id);
@@ -96,7 +115,7 @@ DriftStats measureDrift(const std::vector<std::string>& frontend_sets) {
         far_off += err > 2.0;
       }
     }
-  }
+  });
   DriftStats s;
   s.median_one_frame_px = median(one);
   s.median_ten_frames_px = median(ten);
@@ -124,25 +143,12 @@ StepBias measureStepBias() {
   };
   std::map<std::uint64_t, Start> prev;
   StepBias out;
-  std::optional<SE3> prev_T_W_C;
-  const auto onGround = [&](const Vec3& p_W) {
-    return std::abs(p_W.z() - sim.world().groundHeight(p_W.x(), p_W.y())) < 1e-4;
-  };
-  for (int k = 10; k < sim.frameCount(); ++k) {
-    const double t_s = sim.frameTime(k);
-    const SE3 T_W_C = sim.trajectory().T_W_B(t_s) * sim.T_B_C();
-    std::optional<Mat3> prior;
-    if (prev_T_W_C) prior = T_W_C.linear().transpose() * prev_T_W_C->linear();
-    prev_T_W_C = T_W_C;
-    const FrontendResult r = frontend.process(sim.frameStamp(k), row.frames[k], prior);
+  forEachFrame(row, frontend, [&](double t_s, const SE3& T_W_C, const FrontendResult& r) {
     std::map<std::uint64_t, Start> next;
     const auto hitOf = [&](const Vec2& px) -> std::optional<Vec3> {
       const auto b = camera::unproject(sim.camera(), px);
       if (!b) return std::nullopt;
-      const Vec3 d_W = T_W_C.linear() * b->normalized();
-      const auto t = sim.world().firstOpaqueHit(T_W_C.translation(), d_W, 30.0, t_s);
-      if (!t) return std::nullopt;
-      return Vec3(T_W_C.translation() + *t * d_W);
+      return castRay(sim, T_W_C, t_s, b->normalized());
     };
     for (const FeatureObservation& o : r.observations) {
       const auto it = prev.find(o.track_id);
@@ -166,16 +172,16 @@ StepBias measureStepBias() {
         }
       }
       const auto p_W = hitOf(o.px);
-      if (!p_W || !onGround(*p_W)) continue;
+      if (!p_W || !onGround(sim, *p_W)) continue;
       bool edge = false;
       for (int a = 0; a < 8 && !edge; ++a) {
         const auto q = hitOf(o.px + 6.0 * Vec2(std::cos(a * M_PI / 4.0), std::sin(a * M_PI / 4.0)));
-        edge = !q || !onGround(*q);
+        edge = !q || !onGround(sim, *q);
       }
       next[o.track_id] = {o.px, *p_W, edge};
     }
     prev.swap(next);
-  }
+  });
   for (int b = 0; b < 3; ++b) {
     if (out.clean_n[b]) out.clean[b] /= out.clean_n[b];
     if (out.edge_n[b]) out.edge[b] /= out.edge_n[b];
