@@ -1,5 +1,8 @@
 #include "frontend/frontend.hpp"
 
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
 #include <cmath>
 
 #include "common/error.hpp"
@@ -67,7 +70,8 @@ Frontend::Frontend(const camera::Camera& camera, const FrontendOptions& options)
       bearing_table_(buildBearingTable(camera)),
       matcher_(options.matcher),
       tracker_(options.tracker),
-      relative_pose_(options.relative_pose) {}
+      relative_pose_(options.relative_pose),
+      step_refiner_(options.track_refine) {}
 
 void Frontend::reset() {
   has_prev_ = false;
@@ -158,15 +162,24 @@ FrontendResult Frontend::process(Timestamp t_ns, const cv::Mat& grey,
     px[j] = cur_.pixel(j, refined);
     cls[j] = static_cast<int>(cur_.features[j].cls);
   }
-  const bool refine_steps = options_.track_refine.enabled && !prev_grey_.empty();
   for (const Match& m : matches) {
     px[m.cur] = prev_px_[m.prev] + (m.px_cur - m.px_prev);
     prev_index[m.cur] = m.prev;
-    if (refine_steps) {
-      if (const auto x = refineTrackStep(prev_grey_, prev_px_[m.prev], grey, px[m.cur],
-                                         options_.track_refine))
-        px[m.cur] = *x;
-    }
+  }
+  if (options_.track_refine.enabled && !prev_grey_.empty()) {
+    // Each step is independent: split over the cores (the estimator stage mostly waits), then
+    // applied in match order.
+    std::vector<std::optional<Vec2>> refined_px(matches.size());
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, matches.size(), 256),
+                      [&](const tbb::blocked_range<std::size_t>& range) {
+                        for (std::size_t k = range.begin(); k != range.end(); ++k) {
+                          const Match& m = matches[k];
+                          refined_px[k] = step_refiner_.refine(prev_grey_, prev_px_[m.prev], grey,
+                                                               px[m.cur]);
+                        }
+                      });
+    for (std::size_t k = 0; k < matches.size(); ++k)
+      if (refined_px[k]) px[matches[k].cur] = *refined_px[k];
   }
   std::vector<Vec3> bearings(cur_.size());
   for (int j = 0; j < cur_.size(); ++j) {

@@ -13,6 +13,7 @@
 
 #include <opencv2/core.hpp>
 #include <optional>
+#include <vector>
 
 #include "common/types.hpp"
 
@@ -22,16 +23,30 @@ struct TrackRefineOptions {
   bool enabled = false;       // frontend.track_refine
   int half_window_px = 3;     // frontend.track_refine_half_window_px: patch (2r+1)^2 pixels
   double sigma_px = 1.5;      // frontend.track_refine_sigma_px: Gaussian weight of the patch
-  int max_iterations = 8;     // Gauss-Newton steps at most
+  int max_iterations = 5;     // Gauss-Newton steps at most
   double max_shift_px = 1.0;  // frontend.track_refine_max_shift_px: further from the start = fail
   double min_gradient = 2.0;  // weighted RMS gradient (grey levels / px) along the weakest axis
 };
 
-/// Where the patch of `prev` (CV_8UC1) around the sub-pixel point x_prev is found in `cur`
-/// (CV_8UC1, same size), starting at x_cur: brightness offset compensated, bilinear sampling.
-/// nullopt when the patch leaves either image, has too little texture along some axis, does not
-/// converge, or moves more than max_shift_px from x_cur (the caller keeps x_cur).
-std::optional<Vec2> refineTrackStep(const cv::Mat& prev, const Vec2& x_prev, const cv::Mat& cur,
-                                    const Vec2& x_cur, const TrackRefineOptions& options);
+/// Translation-only Lucas-Kanade of one track step. The Gaussian weights of the patch are
+/// computed once here (they were 49 exp() calls per step, most of its cost); refine() is const and
+/// safe to call from several threads.
+class TrackStepRefiner {
+ public:
+  explicit TrackStepRefiner(const TrackRefineOptions& options = {});
+  /// Where the patch of `prev` (CV_8UC1) around the sub-pixel point x_prev is found in `cur`
+  /// (CV_8UC1, same size), starting at x_cur: brightness offset compensated, bilinear sampling.
+  /// nullopt when the patch leaves either image, has too little texture along some axis, does not
+  /// converge, or moves more than max_shift_px from x_cur (the caller keeps x_cur).
+  std::optional<Vec2> refine(const cv::Mat& prev, const Vec2& x_prev, const cv::Mat& cur,
+                             const Vec2& x_cur) const;
+  const TrackRefineOptions& options() const { return options_; }
+
+ private:
+  TrackRefineOptions options_;
+  int half_ = 3;
+  std::vector<float> weight_;  // (2 half + 1)^2, row-major
+  float weight_sum_ = 0.f;
+};
 
 }  // namespace ovo::frontend

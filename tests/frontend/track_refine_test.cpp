@@ -32,11 +32,11 @@ TEST(TrackRefine, RecoversASubPixelShiftFromAnOffStart) {
   const Vec2 shift(0.37, -0.62);
   const cv::Mat prev = render(texture);
   const cv::Mat cur = render([&](double u, double v) { return texture(u - shift.x(), v - shift.y()); });
-  const TrackRefineOptions options;
+  const TrackStepRefiner refiner;
   for (const Vec2& x_prev : {Vec2(40.0, 30.0), Vec2(52.3, 41.7), Vec2(30.5, 50.25)}) {
     const Vec2 truth = x_prev + shift;
     // The descriptor match lands within half a pixel or so.
-    const auto x = refineTrackStep(prev, x_prev, cur, truth + Vec2(0.4, 0.3), options);
+    const auto x = refiner.refine(prev, x_prev, cur, truth + Vec2(0.4, 0.3));
     ASSERT_TRUE(x.has_value());
     // Bilinear sampling of 8-bit wavelengths down to 7 px is good to ~0.04 px (measured).
     EXPECT_NEAR(x->x(), truth.x(), 0.05);
@@ -50,30 +50,30 @@ TEST(TrackRefine, IgnoresABrightnessOffset) {
   const cv::Mat cur =
       render([&](double u, double v) { return 20.0 + texture(u - shift.x(), v - shift.y()); });
   const Vec2 x_prev(45.2, 38.9), truth = x_prev + shift;
-  const auto x = refineTrackStep(prev, x_prev, cur, x_prev, TrackRefineOptions{});
+  const auto x = TrackStepRefiner().refine(prev, x_prev, cur, x_prev);
   ASSERT_TRUE(x.has_value());
   EXPECT_NEAR((*x - truth).norm(), 0.0, 0.06);
 }
 
 TEST(TrackRefine, RefusesFlatPatchesEdgesBordersAndFarMoves) {
-  const TrackRefineOptions options;
+  const TrackStepRefiner refiner;
   const cv::Mat flat(kH, kW, CV_8UC1, cv::Scalar(90));
-  EXPECT_FALSE(refineTrackStep(flat, Vec2(40, 40), flat, Vec2(40, 40), options));
+  EXPECT_FALSE(refiner.refine(flat, Vec2(40, 40), flat, Vec2(40, 40)));
   // A straight edge fixes only the step across it (aperture problem).
   const auto edge = [](double u, double) { return 128.0 + 60.0 * std::tanh((u - 40.0) / 2.0); };
   const cv::Mat e = render(edge);
-  EXPECT_FALSE(refineTrackStep(e, Vec2(40.2, 40), e, Vec2(40.2, 40.5), options));
+  EXPECT_FALSE(refiner.refine(e, Vec2(40.2, 40), e, Vec2(40.2, 40.5)));
   // The patch must lie inside both images.
   const cv::Mat t = render(texture);
-  EXPECT_FALSE(refineTrackStep(t, Vec2(2.0, 40.0), t, Vec2(2.0, 40.0), options));
-  EXPECT_FALSE(refineTrackStep(t, Vec2(40.0, 40.0), t, Vec2(kW - 2.5, 40.0), options));
+  EXPECT_FALSE(refiner.refine(t, Vec2(2.0, 40.0), t, Vec2(2.0, 40.0)));
+  EXPECT_FALSE(refiner.refine(t, Vec2(40.0, 40.0), t, Vec2(kW - 2.5, 40.0)));
   // A true step of 2.5 px from the start is beyond max_shift_px (1 px): refused, not followed.
   const cv::Mat moved = render([](double u, double v) { return texture(u - 2.5, v); });
-  EXPECT_FALSE(refineTrackStep(t, Vec2(40.0, 40.0), moved, Vec2(40.0, 40.0), options));
+  EXPECT_FALSE(refiner.refine(t, Vec2(40.0, 40.0), moved, Vec2(40.0, 40.0)));
   // ... and found with a wider bound.
-  TrackRefineOptions wide = options;
+  TrackRefineOptions wide;
   wide.max_shift_px = 4.0;
-  const auto x = refineTrackStep(t, Vec2(40.0, 40.0), moved, Vec2(41.5, 40.0), wide);
+  const auto x = TrackStepRefiner(wide).refine(t, Vec2(40.0, 40.0), moved, Vec2(41.5, 40.0));
   ASSERT_TRUE(x.has_value());
   EXPECT_NEAR(x->x(), 42.5, 0.05);
 }
