@@ -15,6 +15,13 @@ namespace {
 
 constexpr double kDegToRad = M_PI / 180.0;
 
+// Where a landmark that outlives its anchor keyframe is anchored next.
+struct Reanchor {
+  int kf_id = -1;
+  Vec3 bearing_C = Vec3::UnitZ();
+  double rho = 0.0;
+};
+
 double median(std::vector<double> v) {
   if (v.empty()) return 0.0;
   auto mid = v.begin() + static_cast<long>(v.size() / 2);
@@ -667,15 +674,22 @@ void WindowCore::marginalize() {
   while (static_cast<int>(map_.keyframes.size()) > options_.window_size) {
     const auto t0 = std::chrono::steady_clock::now();
     Keyframe* oldest = map_.keyframes.front().get();
-    std::unordered_set<TrackId> reanchor;
-    std::unordered_map<TrackId, Vec3> reanchor_points;
-    for (const auto& [id, lm] : map_.landmarks) {
-      if (lm.anchor_kf != oldest->id) continue;
-      if (map_.observationCount(id) - 1 >= 2) {
-        if (auto p = map_.pointW(lm, setup_.T_B_C)) {
-          reanchor.insert(id);
-          reanchor_points[id] = *p;
-        }
+    // Landmarks seen twice more live on, re-anchored in the first later keyframe that sees them
+    // in front (their point kept).
+    std::unordered_map<TrackId, Reanchor> reanchor;
+    for (auto& [id, lm] : map_.landmarks) {
+      if (lm.anchor_kf != oldest->id || map_.observationCount(id) - 1 < 2) continue;
+      const auto p_W = map_.pointW(lm, setup_.T_B_C);
+      if (!p_W) continue;
+      for (std::size_t k = 1; k < map_.keyframes.size(); ++k) {
+        const Keyframe& kf = *map_.keyframes[k];
+        auto o = kf.observations.find(id);
+        if (o == kf.observations.end()) continue;
+        const Vec3 p_C = (kf.pose() * setup_.T_B_C).inverse() * *p_W;
+        const double depth = o->second.bearing_C.dot(p_C);
+        if (depth > options_.landmark_min_depth_m)
+          reanchor[id] = {kf.id, o->second.bearing_C, 1.0 / depth};
+        break;
       }
     }
     // Landmarks that end here, strongest first (LiDAR-linked, then most observed), up to the
@@ -688,14 +702,16 @@ void WindowCore::marginalize() {
       if (lm.anchor_kf == oldest->id && !reanchor.count(id))
         ending.emplace_back(-(map_.observationCount(id) + (lidar_tracks.count(id) ? 100 : 0)), id);
     std::sort(ending.begin(), ending.end());
-    std::unordered_set<TrackId> marginalized;
+    std::unordered_map<TrackId, int> marginalized;  // track -> -1 (all its factors) or link kf
     const std::size_t max_marginalized =
         options_.marginalize_max_landmarks > 0
             ? static_cast<std::size_t>(options_.marginalize_max_landmarks)
             : ending.size();
     for (std::size_t k = 0; k < ending.size() && k < max_marginalized; ++k)
-      if (ending[k].first <= -2) marginalized.insert(ending[k].second);
-    if (options_.marginalize_reanchored) marginalized.insert(reanchor.begin(), reanchor.end());
+      if (ending[k].first <= -2) marginalized[ending[k].second] = -1;
+    if (options_.marginalize_reanchored != "none")
+      for (const auto& [id, r] : reanchor)
+        marginalized[id] = options_.marginalize_reanchored == "all" ? -1 : r.kf_id;
     auto info = marginalizeOldest(map_, model_, gauge_, marginalized);
     map_.rememberPoints(setup_.T_B_C);
     kf_poses_[oldest->id] = oldest->pose();
@@ -709,24 +725,16 @@ void WindowCore::marginalize() {
         ++it;
         continue;
       }
-      bool keep = false;
-      if (reanchor.count(it->first)) {
-        for (const auto& kf : map_.keyframes) {
-          auto o = kf->observations.find(it->first);
-          if (o == kf->observations.end()) continue;
-          const Vec3 p_C = (kf->pose() * setup_.T_B_C).inverse() * reanchor_points[it->first];
-          const double depth = o->second.bearing_C.dot(p_C);
-          if (depth > options_.landmark_min_depth_m) {
-            lm.anchor_kf = kf->id;
-            lm.bearing_anchor_C = o->second.bearing_C;
-            lm.rho[0] = 1.0 / depth;
-            lm.on_ground = false;  // labelled again against the new anchor's plane
-            keep = true;
-          }
-          break;
-        }
+      const auto r = reanchor.find(it->first);
+      if (r == reanchor.end()) {
+        it = map_.landmarks.erase(it);
+        continue;
       }
-      it = keep ? std::next(it) : map_.landmarks.erase(it);
+      lm.anchor_kf = r->second.kf_id;
+      lm.bearing_anchor_C = r->second.bearing_C;
+      lm.rho[0] = r->second.rho;
+      lm.on_ground = false;  // labelled again against the new anchor's plane
+      ++it;
     }
     if (info) {
       gauge_.marginalization = info;

@@ -114,7 +114,8 @@ WindowOptions readWindowOptions(const Config& c) {
   o.ground_scale_gate = c.getInRange(p + "ground_scale_gate", o.ground_scale_gate, 0.0, 1.0);
   o.ground_inlier_fraction =
       c.getInRange(p + "ground_inlier_fraction", o.ground_inlier_fraction, 1e-4, 1.0);
-  o.marginalize_reanchored = c.get<bool>(p + "marginalize_reanchored", o.marginalize_reanchored);
+  o.marginalize_reanchored = c.getChoice(p + "marginalize_reanchored", o.marginalize_reanchored,
+                                         {"link", "all", "none"});
 
   o.gyro = factors::readGyroPreintegrationOptions(c, "gyro");
   return o;

@@ -120,9 +120,12 @@ struct WindowOptions {
   bool refine_ground = true;                  // camera-height factors in the refinement
   int marginalize_max_landmarks = 0;          // ending landmarks Schur-complemented into the prior,
                                               // strongest first (the rest are dropped); 0: all
-  bool marginalize_reanchored = true;  // landmarks that outlive the oldest keyframe: their factors
-                                       // go into the prior before they are re-anchored (VINS-Mono;
-                                       // false: dropped, and the prior keeps little but the gyro)
+  // Landmarks that outlive the oldest keyframe, before they are re-anchored in the next keyframe
+  // that sees them. link: the factor tying the old anchor to the new one (and the anchor's own)
+  // goes into the prior, the later observations stay in the window, each counted once. all: every
+  // factor goes in (VINS-Mono), and the later observations then count twice: vision outweighs
+  // the gyro and pulls its bias. none: dropped (the prior keeps little but the gyro).
+  std::string marginalize_reanchored = "link";
 
   factors::GyroPreintegrationOptions gyro;  // "gyro." keys
 };

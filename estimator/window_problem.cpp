@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <unordered_map>
+#include <unordered_set>
 
 #include "factors/bearing_factor.hpp"
 #include "factors/ground_height_factor.hpp"
@@ -294,7 +295,7 @@ std::vector<ObservationError> observationErrors(const std::vector<Keyframe*>& ke
 
 std::shared_ptr<const factors::MarginalizationInfo> marginalizeOldest(
     WindowMap& map, const WindowModel& model, const WindowGauge& gauge,
-    const std::unordered_set<TrackId>& marginalize_tracks) {
+    const std::unordered_map<TrackId, int>& marginalize_tracks) {
   if (map.keyframes.size() < 2) return nullptr;
   Keyframe* oldest = map.keyframes.front().get();
   std::vector<Keyframe*> kfs;
@@ -318,7 +319,9 @@ std::shared_ptr<const factors::MarginalizationInfo> marginalizeOldest(
       const bool anchored_here = it != map.landmarks.end() && it->second.anchor_kf == oldest->id;
       // Only the selected landmarks anchored here; a factor of a landmark anchored elsewhere
       // would put its rho into the prior, so it is dropped as well.
-      if (!anchored_here || !marginalize_tracks.count(f.track)) continue;
+      const auto sel = marginalize_tracks.find(f.track);
+      if (!anchored_here || sel == marginalize_tracks.end()) continue;
+      if (sel->second >= 0 && f.kf_id != oldest->id && f.kf_id != sel->second) continue;
     }
     std::vector<int> drop_idx;
     for (std::size_t k = 0; k < f.blocks.size(); ++k)

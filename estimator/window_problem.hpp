@@ -10,7 +10,7 @@
 #include <memory>
 #include <optional>
 #include <string>
-#include <unordered_set>
+#include <unordered_map>
 #include <vector>
 
 #include "estimator/window_map.hpp"
@@ -140,14 +140,16 @@ void repropagateGyro(const std::vector<Keyframe*>& keyframes);
 
 /// Marginalises the oldest keyframe of `map` (VINS-Mono / OKVIS style, DESIGN section 6): its
 /// states, its gyro / bias / gauge factors, the previous prior, and the landmarks it anchors that
-/// are listed in `marginalize_tracks` (Schur-complemented out with all their factors) go into the
-/// new prior. Factors of the other landmarks it anchors are dropped, not marginalised: those that
-/// live on are re-anchored by the caller (nothing is counted twice), the rest are forgotten.
-/// Each landmark is Schur-complemented on its own (a 1x1 block). Returns the new prior
-/// (null when the marginalisation failed; the caller then keeps a pose prior instead).
+/// are keys of `marginalize_tracks` (Schur-complemented out) go into the new prior. The value -1
+/// takes all of a landmark's factors (one that ends here); a keyframe id takes only the factors
+/// of the anchor itself and of that keyframe (a landmark the caller re-anchors there: its other
+/// observations stay in the window, so each measurement counts once). Factors of the other
+/// landmarks it anchors are dropped. Each landmark is Schur-complemented on its own (a 1x1
+/// block). Returns the new prior (null when the marginalisation failed; the caller then keeps a
+/// pose prior instead).
 std::shared_ptr<const factors::MarginalizationInfo> marginalizeOldest(
     WindowMap& map, const WindowModel& model, const WindowGauge& gauge,
-    const std::unordered_set<TrackId>& marginalize_tracks);
+    const std::unordered_map<TrackId, int>& marginalize_tracks);
 
 /// Motion-only refinement of one frame pose against landmarks fixed at their current values
 /// (world points), with a rotation prior (e.g. from the gyro). Returns the pose and, per point,
