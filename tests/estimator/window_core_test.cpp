@@ -353,11 +353,13 @@ double positionRmse(const SyntheticSequence& seq, const Trajectory& traj, std::s
   return std::sqrt(sum / static_cast<double>(seq.frames.size() - first));
 }
 
-TEST(WindowCore, FullRefinementBeatsTheOnlineWindow) {
+TEST(WindowCore, FullRefinementMatchesTheOnlineWindow) {
   // A 12 s drive, most keyframes marginalised online, with tracks that creep (0.2 px per
   // sqrt(frame)): one landmark per whole track ties far keyframes with a biased ray (measured:
-  // RMSE 0.037 m vs the window's 0.023 m); in pieces of at most 40 frames, with an outlier pass,
-  // the batch halves the window's error (0.011 m).
+  // RMSE 0.037 m); in pieces of at most 40 frames, with an outlier pass, the batch gets 0.0134 m.
+  // The online window gets 0.0129 m: it had 0.023 m while re-anchored landmarks went into the
+  // prior with all their factors and counted twice (window.marginalize_reanchored=all, with
+  // which the batch got 0.0112 m), so the batch no longer beats it.
   SyntheticOptions o;
   o.duration_s = 12.0;
   o.track_creep_px = 0.2;  // as measured on the simulated rows' tracks
@@ -387,7 +389,8 @@ TEST(WindowCore, FullRefinementBeatsTheOnlineWindow) {
   const double rmse_full = positionRmse(seq, full, first);
   std::printf("position RMSE online %.4f m, full refinement %.4f m (path %.1f m)\n", rmse_online,
               rmse_full, pathLength(seq));
-  EXPECT_LT(rmse_full, 0.8 * rmse_online);
+  EXPECT_LT(rmse_full, 0.016);
+  EXPECT_LT(rmse_full, 1.1 * rmse_online);
   const SE3 T_true = truthRel(seq, seq.frames.size() - 1);
   const auto yawErrDeg = [&](const SE3& T) {
     return so3::angle(T.linear().transpose() * T_true.linear()) * 180.0 / M_PI;
