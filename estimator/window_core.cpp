@@ -677,7 +677,7 @@ void WindowCore::marginalize() {
     // Landmarks seen twice more live on, re-anchored in the first later keyframe that sees them
     // in front (their point kept).
     std::unordered_map<TrackId, Reanchor> reanchor;
-    for (auto& [id, lm] : map_.landmarks) {
+    for (const auto& [id, lm] : map_.landmarks) {
       if (lm.anchor_kf != oldest->id || map_.observationCount(id) - 1 < 2) continue;
       const auto p_W = map_.pointW(lm, setup_.T_B_C);
       if (!p_W) continue;

@@ -71,12 +71,12 @@ struct WindowOptions {
   int lidar_edge_neighbours = 2;           // ... over this many beams on each side (0: off)
   std::string lidar_ground_beams = "raw";  // with lidar_interpolate, beams ending on the ground
                                            // (0.7 camera heights below the camera; needs the
-                                           // rig's camera height)
-                                           // meet it grazing, so their range hangs on the
-                                           // elevation. raw: the beam's range; skip: not used
-                                           // (loses scale: measured worse); plane: the landmark
-                                           // lies on the ground plane (body up) through the
-                                           // beam end, its height off it lidar_ground_sigma_m
+                                           // rig's camera height) meet it grazing, so their
+                                           // range hangs on the elevation. raw: the beam's
+                                           // range; skip: not used (loses scale: measured
+                                           // worse); plane: the landmark lies on the ground
+                                           // plane (body up) through the beam end, its height
+                                           // off it lidar_ground_sigma_m
   double lidar_ground_sigma_m = 0.02;      // ... that height's noise, m
   bool lidar_interpolate = true;           // associate landmarks near the scan plane with the range
   double lidar_max_elevation_deg = 1.0;    // interpolated at their azimuth (false: nearest beam end

@@ -40,7 +40,6 @@ class TrackStepRefiner {
   /// converge, or moves more than max_shift_px from x_cur (the caller keeps x_cur).
   std::optional<Vec2> refine(const cv::Mat& prev, const Vec2& x_prev, const cv::Mat& cur,
                              const Vec2& x_cur) const;
-  const TrackRefineOptions& options() const { return options_; }
 
  private:
   TrackRefineOptions options_;
