@@ -868,81 +868,30 @@ bool WindowCore::tryInitialize(const VisualFrame& frame, const SE3& T_W_B_pred,
         if (unit > 1e-6) ratios.push_back(m.beam_dist_C / unit);
       }
     }
-    // The largest group of ratios that agree within 20 % (a beam end next to a feature that
-    // lies behind a canopy gap gives a wrong ratio): its median, if the group is big enough.
-    // group_end[i]: one past the last ratio within 20 % of ratios[i].
-    std::sort(ratios.begin(), ratios.end());
-    std::vector<std::size_t> group_end(ratios.size());
-    for (std::size_t i = 0, j = 0; i < ratios.size(); ++i) {
-      while (j < ratios.size() && ratios[j] <= ratios[i] * 1.2) ++j;
-      group_end[i] = j;
+    using Outcome = LidarScaleVote::Outcome;
+    const LidarScaleVote vote =
+        voteLidarScale(std::move(ratios), ground_scale, options_.lidar_min_associations, can_defer);
+    switch (vote.outcome) {
+      case Outcome::kAgreed:
+        break;
+      case Outcome::kGroundSettled:
+        note("LiDAR scale ambiguous at an initialisation: the group that the ground plane agrees "
+             "with");
+        break;
+      case Outcome::kPutOff:
+        ++scale_deferrals_;
+        note("LiDAR scale ambiguous at an initialisation (two groups of range ratios): put off");
+        return false;
+      case Outcome::kForced:
+        note("LiDAR scale stayed ambiguous at an initialisation: the group nearest the ground "
+             "plane, else the nearest surfaces");
+        break;
+      case Outcome::kTooFew:
+        note("LiDAR associated too few points at an initialisation: ground-plane scale there");
+        break;
     }
-    std::size_t best_lo = 0, best_n = 0;
-    for (std::size_t i = 0; i < ratios.size(); ++i) {
-      if (group_end[i] - i > best_n) {
-        best_n = group_end[i] - i;
-        best_lo = i;
-      }
-    }
-    // A second group almost as large (beams through a canopy gap onto the next row give a
-    // consistent wrong ratio) makes the vote a coin toss: put the initialisation off to a later
-    // frame (more parallax, another scan) unless the ground plane settles it.
-    std::size_t second_n = 0;
-    for (std::size_t i = 0; i < ratios.size(); ++i)
-      if (group_end[i] <= best_lo || i >= best_lo + best_n)
-        second_n = std::max(second_n, group_end[i] - i);
-    bool ambiguous = best_n > 0 && 2 * second_n >= best_n;
-    // The ground plane settles a tie: the largest group that agrees with it within 20 %.
-    if (ambiguous && ground_scale) {
-      std::size_t pick_lo = 0, pick_n = 0;
-      for (std::size_t i = 0; i < ratios.size(); ++i) {
-        const std::size_t n = group_end[i] - i;
-        const double median_ratio = ratios[i + n / 2];
-        if (2 * n >= best_n && n > pick_n && median_ratio <= 1.2 * *ground_scale &&
-            *ground_scale <= 1.2 * median_ratio) {
-          pick_n = n;
-          pick_lo = i;
-        }
-      }
-      if (pick_n > 0) {
-        best_lo = pick_lo;
-        best_n = pick_n;
-        ambiguous = false;
-        note(
-            "LiDAR scale ambiguous at an initialisation: the group that the ground plane agrees "
-            "with");
-      }
-    }
-    if (ambiguous && can_defer) {
-      ++scale_deferrals_;
-      note("LiDAR scale ambiguous at an initialisation (two groups of range ratios): put off");
-      return false;
-    }
-    if (ambiguous) {
-      // No more waiting: the group nearest the ground plane's scale, else the nearest surfaces
-      // (the smallest ratio; a beam through a canopy gap only ever reads too far).
-      std::size_t pick = ratios.size();
-      double pick_dist = std::numeric_limits<double>::infinity();
-      for (std::size_t i = 0; i < ratios.size(); ++i) {
-        const std::size_t n = group_end[i] - i;
-        if (2 * n < best_n) continue;
-        const double d = ground_scale ? std::abs(std::log(ratios[i + n / 2] / *ground_scale)) : 0.0;
-        if (d < pick_dist) pick_dist = d, pick = i;
-        if (!ground_scale) break;
-      }
-      scale = ratios[pick + (group_end[pick] - pick) / 2];
-      lidar_scale_ = true;
-      note(
-          "LiDAR scale stayed ambiguous at an initialisation: the group nearest the ground "
-          "plane, else the nearest surfaces");
-    } else if (static_cast<int>(best_n) >= options_.lidar_min_associations / 2 &&
-               static_cast<int>(ratios.size()) >= options_.lidar_min_associations &&
-               best_n >= ratios.size() / 3) {
-      scale = ratios[best_lo + best_n / 2];
-      lidar_scale_ = true;
-    } else {
-      note("LiDAR associated too few points at an initialisation: ground-plane scale there");
-    }
+    scale = vote.scale;
+    lidar_scale_ = vote.scale.has_value();
   }
   if (!scale) scale = ground_scale;
   // A window started at a wrong scale keeps it: the LiDAR and ground gates then reject every

@@ -80,6 +80,28 @@ class StandstillBias {
   std::vector<Sample> ended_, open_;
 };
 
+/// The initialisation's metric scale from LiDAR range ratios (beam range over the unit-baseline
+/// distance of the track it lands next to). Ratios are grouped by agreement within 20 %: the
+/// largest group wins unless a group at least half its size disagrees with it (beams through a
+/// canopy gap onto the next row give a consistent wrong ratio), or the ground plane's scale
+/// disagrees with it while it agrees with a group of at least min_associations / 2. The ground
+/// plane settles such a tie; otherwise it is put off while allowed, else the group nearest the
+/// ground plane's scale, else the nearest surfaces (smallest ratio: a gap only reads too far).
+struct LidarScaleVote {
+  enum class Outcome {
+    kAgreed,         // the largest group, unchallenged
+    kGroundSettled,  // a tie settled by the ground plane
+    kPutOff,         // a tie: wait for a later frame
+    kForced,         // a tie that could not wait
+    kTooFew,         // too few ratios, or no group big enough: no LiDAR scale
+  };
+  Outcome outcome = Outcome::kTooFew;
+  std::optional<double> scale;  // the chosen group's median ratio (kAgreed, kGroundSettled,
+                                // kForced)
+};
+LidarScaleVote voteLidarScale(std::vector<double> ratios, std::optional<double> ground_scale,
+                              int min_associations, bool can_put_off);
+
 /// Median angle (deg) between R_C1_C0 b0 and b1: the rotation-compensated parallax.
 double medianParallaxDeg(const std::vector<Vec3>& bearings0_C, const std::vector<Vec3>& bearings1_C,
                          const Mat3& R_C1_C0);

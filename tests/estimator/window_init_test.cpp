@@ -1,6 +1,7 @@
 // The zero-rate update of the gyro bias from still frames (StandstillBias): known bias, gyro
 // white noise at the rig's density, and the start of a motion that the standstill detector
-// still took for standing.
+// still took for standing. The initialisation's LiDAR scale vote (voteLidarScale) on range
+// ratios with known groups.
 #include "estimator/window_init.hpp"
 
 #include <gtest/gtest.h>
@@ -77,6 +78,54 @@ TEST(StandstillBias, StreaksAddUpAndTooShortGivesNothing) {
   EXPECT_NEAR(open->time_s, 0.6, 1e-9);
   z.reset();
   EXPECT_FALSE(z.estimate(0.0).has_value());
+}
+
+// Range ratios seen at the pinhole row's initialisation (vineyard_row_pinhole, 500 tracks): four
+// beams on the near canopy agree with the ground plane's 0.104; nine through a gap onto the next
+// row agree with each other on about 0.29, 2.8 times too far.
+const std::vector<double> kPinholeRatios = {0.266, 0.100, 0.271, 0.279, 0.101, 0.285, 0.295,
+                                            0.306, 0.103, 0.308, 0.241, 0.312, 0.314, 0.104};
+
+TEST(LidarScaleVote, TheLargestGroupWinsWithoutTheGroundPlane) {
+  const auto vote = voteLidarScale(kPinholeRatios, std::nullopt, 8, true);
+  EXPECT_EQ(vote.outcome, LidarScaleVote::Outcome::kAgreed);
+  ASSERT_TRUE(vote.scale.has_value());
+  EXPECT_DOUBLE_EQ(*vote.scale, 0.295);  // median of 0.266 ... 0.314
+}
+
+TEST(LidarScaleVote, TheGroundPlaneOverrulesALargerGroupItDisagreesWith) {
+  const auto vote = voteLidarScale(kPinholeRatios, 0.104, 8, true);
+  EXPECT_EQ(vote.outcome, LidarScaleVote::Outcome::kGroundSettled);
+  ASSERT_TRUE(vote.scale.has_value());
+  EXPECT_DOUBLE_EQ(*vote.scale, 0.103);  // median of 0.100 ... 0.104
+  // A ground plane that agrees with the largest group leaves it be.
+  EXPECT_EQ(voteLidarScale(kPinholeRatios, 0.3, 8, true).outcome,
+            LidarScaleVote::Outcome::kAgreed);
+  // Too small a group cannot challenge it: three beams are not min_associations / 2.
+  const std::vector<double> three(kPinholeRatios.begin() + 1, kPinholeRatios.end() - 1);
+  const auto small = voteLidarScale(three, 0.104, 8, true);
+  EXPECT_EQ(small.outcome, LidarScaleVote::Outcome::kAgreed);
+  EXPECT_GT(*small.scale, 0.25);
+}
+
+TEST(LidarScaleVote, ATieIsPutOffThenTheNearestSurfacesWin) {
+  const std::vector<double> tie = {0.30, 0.10, 0.31, 0.101, 0.29, 0.102, 0.305, 0.099, 0.295};
+  EXPECT_EQ(voteLidarScale(tie, std::nullopt, 8, true).outcome, LidarScaleVote::Outcome::kPutOff);
+  const auto forced = voteLidarScale(tie, std::nullopt, 8, false);
+  EXPECT_EQ(forced.outcome, LidarScaleVote::Outcome::kForced);
+  ASSERT_TRUE(forced.scale.has_value());
+  EXPECT_NEAR(*forced.scale, 0.10, 0.002);
+  // With a ground plane that agrees with neither group, the nearer one to it.
+  const auto near_ground = voteLidarScale(tie, 0.2, 8, false);
+  EXPECT_EQ(near_ground.outcome, LidarScaleVote::Outcome::kForced);
+  EXPECT_NEAR(*near_ground.scale, 0.30, 0.006);
+}
+
+TEST(LidarScaleVote, TooFewRatiosGiveNoScale) {
+  EXPECT_EQ(voteLidarScale({}, 0.1, 8, true).outcome, LidarScaleVote::Outcome::kTooFew);
+  const auto few = voteLidarScale({0.30, 0.31, 0.32, 0.9}, std::nullopt, 8, true);  // 3 < 8 / 2
+  EXPECT_EQ(few.outcome, LidarScaleVote::Outcome::kTooFew);
+  EXPECT_FALSE(few.scale.has_value());
 }
 
 }  // namespace
