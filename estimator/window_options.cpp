@@ -16,6 +16,8 @@ WindowOptions readWindowOptions(const Config& c) {
   o.kf_max_interval_s = c.getInRange(p + "kf_max_interval_s", o.kf_max_interval_s, 0.01, 1e3);
   o.min_landmark_observations =
       c.getIntInRange(p + "min_landmark_observations", o.min_landmark_observations, 3, 10000);
+  o.min_inlier_fraction =
+      c.getInRange(p + "min_inlier_fraction", o.min_inlier_fraction, 0.0, 1.0);
 
   o.max_features = c.getIntInRange(p + "max_features", o.max_features, 10, 100000);
   o.max_lidar_features = c.getIntInRange(p + "max_lidar_features", o.max_lidar_features, 0, 100000);

@@ -22,7 +22,8 @@ struct WindowOptions {
   double kf_track_fraction = 0.6;          // new kf when fewer of the last kf's tracks are alive
   double kf_max_interval_s = 1.0;          // new kf at the latest after this time (when moving), s
   int min_landmark_observations = 12;      // fewer landmarks seen in a frame: tracking lost
-  int max_features = 250;                  // tracks a keyframe keeps (spread over the image)
+  double min_inlier_fraction = 0.15;       // ... or fewer of them fit the frame's pose: lost
+  int max_features = 500;                  // tracks a keyframe keeps (spread over the image)
   int max_lidar_features = 60;             // ... of which tracks picked next to LiDAR beams
   double feature_cell_px = 40.0;           // spreading grid cell, px
   int features_per_cell = 2;               // tracks per grid cell
@@ -108,7 +109,7 @@ struct WindowOptions {
 
   // Solver.
   std::string linear_solver = "dense_schur";  // dense_schur | sparse_schur
-  int max_iterations = 8;                     // per window solve
+  int max_iterations = 4;                     // per window solve (warm-started by the last)
   double max_solver_time_s = 0.0;             // per window solve, s; 0 = no limit (online: ~0.04)
   int motion_only_iterations = 5;             // per-frame pose refinement
   std::string refine = "none";                // none | full (offline: re-optimise all keyframes)

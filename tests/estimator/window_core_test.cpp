@@ -353,13 +353,23 @@ double positionRmse(const SyntheticSequence& seq, const Trajectory& traj, std::s
   return std::sqrt(sum / static_cast<double>(seq.frames.size() - first));
 }
 
+double rotationRmseDeg(const SyntheticSequence& seq, const Trajectory& traj, std::size_t first) {
+  double sum = 0.0;
+  for (std::size_t i = first; i < seq.frames.size(); ++i) {
+    const double a = so3::angle(traj[i].T_W_B.linear().transpose() * truthRel(seq, i).linear());
+    sum += a * a;
+  }
+  return std::sqrt(sum / static_cast<double>(seq.frames.size() - first)) * 180.0 / M_PI;
+}
+
 TEST(WindowCore, FullRefinementMatchesTheOnlineWindow) {
   // A 12 s drive, most keyframes marginalised online, with tracks that creep (0.2 px per
   // sqrt(frame)): one landmark per whole track ties far keyframes with a biased ray (measured:
-  // RMSE 0.037 m); in pieces of at most 40 frames, with an outlier pass, the batch gets 0.0134 m.
-  // The online window gets 0.0129 m: it had 0.023 m while re-anchored landmarks went into the
-  // prior with all their factors and counted twice (window.marginalize_reanchored=all, with
-  // which the batch got 0.0112 m), so the batch no longer beats it.
+  // RMSE 0.037 m); in pieces of at most 40 frames, with an outlier pass, the batch gets 0.0085 m
+  // and 0.144 deg against the online window's 0.0093 m and 0.176 deg (500 tracks a keyframe; with
+  // 250 they were 0.0134 and 0.0129 m). The window had 0.023 m while re-anchored landmarks went
+  // into the prior with all their factors and counted twice (window.marginalize_reanchored=all,
+  // with which the batch got 0.0112 m), so the batch no longer beats it by much.
   SyntheticOptions o;
   o.duration_s = 12.0;
   o.track_creep_px = 0.2;  // as measured on the simulated rows' tracks
@@ -391,11 +401,10 @@ TEST(WindowCore, FullRefinementMatchesTheOnlineWindow) {
               rmse_full, pathLength(seq));
   EXPECT_LT(rmse_full, 0.016);
   EXPECT_LT(rmse_full, 1.1 * rmse_online);
-  const SE3 T_true = truthRel(seq, seq.frames.size() - 1);
-  const auto yawErrDeg = [&](const SE3& T) {
-    return so3::angle(T.linear().transpose() * T_true.linear()) * 180.0 / M_PI;
-  };
-  EXPECT_LE(yawErrDeg(full.back().T_W_B), yawErrDeg(online.trajectory.back().T_W_B) + 0.05);
+  const double rot_online = rotationRmseDeg(seq, online.trajectory, first);
+  const double rot_full = rotationRmseDeg(seq, full, first);
+  std::printf("rotation RMSE online %.3f deg, full refinement %.3f deg\n", rot_online, rot_full);
+  EXPECT_LE(rot_full, 1.1 * rot_online + 0.02);
 }
 
 TEST(WindowCore, WithoutGyroUsesVisionOnlyRotationAndSaysSo) {
