@@ -184,11 +184,15 @@ LidarScaleVote voteLidarScale(std::vector<double> ratios, std::optional<double> 
   for (std::size_t i = 0; i < ratios.size(); ++i)
     if (group_end[i] <= best_lo || i >= best_lo + best_n) second_n = std::max(second_n, size(i));
   const auto bigEnough = [&](std::size_t n) { return static_cast<int>(n) >= min_associations / 2; };
-  bool tie = 2 * second_n >= best_n;
-  if (!tie && !agreesWithGround(median(best_lo)))
-    for (std::size_t i = 0; i < ratios.size() && !tie; ++i)
-      tie = bigEnough(size(i)) && agreesWithGround(median(i));
-
+  // The largest group the ground plane agrees with, of at least half the largest's size or
+  // min_associations / 2.
+  std::size_t ground_lo = 0, ground_n = 0;
+  for (std::size_t i = 0; i < ratios.size(); ++i)
+    if ((2 * size(i) >= best_n || bigEnough(size(i))) && size(i) > ground_n &&
+        agreesWithGround(median(i)))
+      ground_n = size(i), ground_lo = i;
+  const bool tie = 2 * second_n >= best_n || (ground_n > 0 && bigEnough(ground_n) &&
+                                              !agreesWithGround(median(best_lo)));
   if (!tie) {
     if (bigEnough(best_n) && static_cast<int>(ratios.size()) >= min_associations &&
         best_n >= ratios.size() / 3) {
@@ -197,15 +201,9 @@ LidarScaleVote voteLidarScale(std::vector<double> ratios, std::optional<double> 
     }
     return vote;
   }
-  std::size_t pick_n = 0;
-  for (std::size_t i = 0; i < ratios.size(); ++i)
-    if ((2 * size(i) >= best_n || bigEnough(size(i))) && size(i) > pick_n &&
-        agreesWithGround(median(i))) {
-      pick_n = size(i);
-      vote.scale = median(i);
-    }
-  if (pick_n > 0) {
+  if (ground_n > 0) {
     vote.outcome = Outcome::kGroundSettled;
+    vote.scale = median(ground_lo);
     return vote;
   }
   if (can_put_off) {
