@@ -209,6 +209,114 @@ TEST(TrackDrift, CleanGroundStepsAreUnbiasedAlongTheFlow) {
   }
 }
 
+// The camera rotation each frame's tracks imply, by kind of track. For every track continued into
+// a frame, the point its previous pixel saw (cast onto the simulator's geometry from the true
+// pose) is projected from the frame's true pose; the small rotation that best moves those true
+// bearings onto the measured ones (least squares on the tangent planes, translation held at the
+// truth) is the frame's apparent rotation error. Averaged over the frames, it is the rotation
+// bias the tracks hand an estimator: a steady one is a steady drift of the vision's attitude.
+struct RotationBias {
+  Vec3 clean = Vec3::Zero(), edge = Vec3::Zero(), all = Vec3::Zero();  // camera frame, rad per frame
+  int frames = 0;
+  double clean_per_frame = 0.0, edge_per_frame = 0.0;  // tracks used per frame
+};
+
+RotationBias measureRotationBias() {
+  const RenderedRow& row = renderedRow();
+  const sim::Simulation& sim = *row.sim;
+  Frontend frontend(sim.camera(), readFrontendOptions(Config{}));
+  struct Seen {
+    Vec3 p_W;
+    bool edge;
+  };
+  std::map<std::uint64_t, Seen> prev;
+  RotationBias out;
+  long clean_n = 0, edge_n = 0;
+  forEachFrame(row, frontend, [&](double t_s, const SE3& T_W_C, const FrontendResult& r) {
+    Mat3 H[2] = {Mat3::Zero(), Mat3::Zero()};
+    Vec3 g[2] = {Vec3::Zero(), Vec3::Zero()};
+    int n[2] = {0, 0};
+    const SE3 T_C_W = T_W_C.inverse();
+    std::map<std::uint64_t, Seen> next;
+    const auto hitOf = [&](const Vec2& px) -> std::optional<Vec3> {
+      const auto b = camera::unproject(sim.camera(), px);
+      if (!b) return std::nullopt;
+      return castRay(sim, T_W_C, t_s, b->normalized());
+    };
+    for (const FeatureObservation& o : r.observations) {
+      const auto it = prev.find(o.track_id);
+      if (it != prev.end()) {
+        const Vec3 b = (T_C_W * it->second.p_W).normalized();
+        const Vec3 e1 = b.unitOrthogonal(), e2 = b.cross(e1);
+        Eigen::Matrix<double, 2, 3> E;
+        E << e1.transpose(), e2.transpose();
+        const Vec2 res = E * (o.bearing_C.normalized() - b);
+        if (res.norm() < 0.01) {  // mismatches (0.6 deg) are no bias
+          // A camera turned by the small rotation w sees b as b - w x b = b + [b]x w.
+          Mat3 bx;
+          bx << 0, -b.z(), b.y(), b.z(), 0, -b.x(), -b.y(), b.x(), 0;
+          const Eigen::Matrix<double, 2, 3> J = E * bx;
+          const int k = it->second.edge ? 1 : 0;
+          H[k] += J.transpose() * J;
+          g[k] += J.transpose() * res;
+          ++n[k];
+        }
+      }
+      const auto p_W = hitOf(o.px);
+      if (!p_W) continue;
+      // Next to a depth edge: a point 6 px away lies more than 10 % nearer or farther (or is sky).
+      const double depth = (*p_W - T_W_C.translation()).norm();
+      bool edge = false;
+      for (int a = 0; a < 8 && !edge; ++a) {
+        const auto q = hitOf(o.px + 6.0 * Vec2(std::cos(a * M_PI / 4.0), std::sin(a * M_PI / 4.0)));
+        edge = !q || std::abs((*q - T_W_C.translation()).norm() - depth) > 0.1 * depth;
+      }
+      next[o.track_id] = {*p_W, edge};
+    }
+    prev.swap(next);
+    if (n[0] < 100 || n[1] < 100) return;
+    out.clean += H[0].ldlt().solve(g[0]);
+    out.edge += H[1].ldlt().solve(g[1]);
+    out.all += (H[0] + H[1]).ldlt().solve(g[0] + g[1]);
+    clean_n += n[0];
+    edge_n += n[1];
+    ++out.frames;
+  });
+  if (out.frames > 0) {
+    out.clean /= out.frames;
+    out.edge /= out.frames;
+    out.all /= out.frames;
+    out.clean_per_frame = static_cast<double>(clean_n) / out.frames;
+    out.edge_per_frame = static_cast<double>(edge_n) / out.frames;
+  }
+  return out;
+}
+
+// Tracks on a surface that continues around them (the ground, the inside of a leaf or a post)
+// imply no steady rotation: the camera model, the sub-pixel matching and the chaining of steps
+// hold no bias of their own. Those next to a depth edge (most of the canopy's tracks: leaves in
+// front of leaves) imply +53, +91, -19 urad per frame about the camera's x, y, z axes, and all
+// tracks together +17, +41, +13 (measured; printed, not asserted). At 20 Hz, 60 urad per frame is
+// the 0.07 deg/s pitch drift of vo and of the vision-only window on the rows; with the translation
+// held at the truth here, while they solve it too, this does not show that these tracks cause it.
+TEST(TrackDrift, TracksAwayFromDepthEdgesImplyNoSteadyRotation) {
+  const RotationBias s = measureRotationBias();
+  std::printf(
+      "apparent rotation per frame (camera x, y, z; urad): clean %+.1f %+.1f %+.1f (%.0f "
+      "tracks), next to a depth edge %+.1f %+.1f %+.1f (%.0f tracks), %d frames\n",
+      1e6 * s.clean.x(), 1e6 * s.clean.y(), 1e6 * s.clean.z(), s.clean_per_frame,
+      1e6 * s.edge.x(), 1e6 * s.edge.y(), 1e6 * s.edge.z(), s.edge_per_frame, s.frames);
+  std::printf("all tracks together %+.1f %+.1f %+.1f urad\n", 1e6 * s.all.x(), 1e6 * s.all.y(),
+              1e6 * s.all.z());
+  RecordProperty("edge_x_urad_per_frame", std::to_string(1e6 * s.edge.x()));
+  RecordProperty("all_x_urad_per_frame", std::to_string(1e6 * s.all.x()));
+  ASSERT_GT(s.frames, 60);
+  ASSERT_GT(s.clean_per_frame, 1000.0);
+  // Measured: +0.2, +2.6, +1.3 urad per frame. A per-frame error of 0.02 px in the far
+  // ground's flow would be ~100 urad.
+  EXPECT_LT(s.clean.norm(), 10e-6);
+}
+
 TEST(TrackDrift, GroundTracksStayNearTheirPointOnARenderedRow) {
   const DriftStats s = measureDrift({});
   RecordProperty("median_one_frame_px", std::to_string(s.median_one_frame_px));
