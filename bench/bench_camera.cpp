@@ -1,5 +1,6 @@
-// Camera model costs: project (with Jacobian) and unproject per model, over a fixed set of
-// image points / rays. BM_CameraProject/<model>, BM_CameraUnproject/<model>.
+// Camera model costs: project (with and without the Jacobian) and unproject per model, over a
+// fixed set of image points / rays. BM_CameraProject/<model>, BM_CameraProjectPoint/<model>,
+// BM_CameraUnproject/<model>.
 #include <benchmark/benchmark.h>
 
 #include <filesystem>
@@ -68,10 +69,12 @@ std::vector<Vec2> validPixels(const cam::Camera& c, int n) {
 }
 
 template <typename Model>
-void projectLoop(benchmark::State& state, const Model& model, const std::vector<Vec3>& rays) {
+void projectLoop(benchmark::State& state, const Model& model, const std::vector<Vec3>& rays,
+                 bool jacobian) {
   Eigen::Matrix<double, 2, 3> J;
+  Eigen::Matrix<double, 2, 3>* want = jacobian ? &J : nullptr;
   for (auto _ : state)
-    for (const Vec3& r : rays) benchmark::DoNotOptimize(model.project(r, &J));
+    for (const Vec3& r : rays) benchmark::DoNotOptimize(model.project(r, want));
   state.SetItemsProcessed(state.iterations() * rays.size());
 }
 
@@ -82,11 +85,20 @@ void unprojectLoop(benchmark::State& state, const Model& model, const std::vecto
   state.SetItemsProcessed(state.iterations() * pixels.size());
 }
 
-void BM_CameraProject(benchmark::State& state, const std::string& name) {
+void projectBench(benchmark::State& state, const std::string& name, bool jacobian) {
   const cam::Camera c = makeModel(name);
   std::vector<Vec3> rays;
   for (const Vec2& px : validPixels(c, 1000)) rays.push_back(3.0 * *cam::unproject(c, px));
-  std::visit([&](const auto& model) { projectLoop(state, model, rays); }, c);
+  std::visit([&](const auto& model) { projectLoop(state, model, rays, jacobian); }, c);
+}
+
+void BM_CameraProject(benchmark::State& state, const std::string& name) {
+  projectBench(state, name, true);
+}
+
+// Without the Jacobian: the frontend's rotation prediction of every feature.
+void BM_CameraProjectPoint(benchmark::State& state, const std::string& name) {
+  projectBench(state, name, false);
 }
 
 void BM_CameraUnproject(benchmark::State& state, const std::string& name) {
@@ -98,6 +110,9 @@ void BM_CameraUnproject(benchmark::State& state, const std::string& name) {
 BENCHMARK_CAPTURE(BM_CameraProject, ocam, std::string("ocam"));
 BENCHMARK_CAPTURE(BM_CameraProject, kannala_brandt, std::string("kannala_brandt"));
 BENCHMARK_CAPTURE(BM_CameraProject, pinhole_radtan, std::string("pinhole_radtan"));
+BENCHMARK_CAPTURE(BM_CameraProjectPoint, ocam, std::string("ocam"));
+BENCHMARK_CAPTURE(BM_CameraProjectPoint, kannala_brandt, std::string("kannala_brandt"));
+BENCHMARK_CAPTURE(BM_CameraProjectPoint, pinhole_radtan, std::string("pinhole_radtan"));
 BENCHMARK_CAPTURE(BM_CameraUnproject, ocam, std::string("ocam"));
 BENCHMARK_CAPTURE(BM_CameraUnproject, kannala_brandt, std::string("kannala_brandt"));
 BENCHMARK_CAPTURE(BM_CameraUnproject, pinhole_radtan, std::string("pinhole_radtan"));

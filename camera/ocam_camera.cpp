@@ -276,7 +276,8 @@ std::optional<Vec2> OcamCamera::project(const Vec3& p_C,
   // held as a Chebyshev series in x = 2 phi / phi_max - 1.
   const double xc = 2.0 * phi / phi_max_rad_ - 1.0;
   const double rho = Chebyshev::clenshaw(rho_cheb_, xc);
-  const double drho = Chebyshev::clenshaw(drho_cheb_, xc) * 2.0 / phi_max_rad_;
+  // d rho / d phi only for the Jacobian (a second series: most calls project without one).
+  const auto dRho = [&] { return Chebyshev::clenshaw(drho_cheb_, xc) * 2.0 / phi_max_rad_; };
   // [u; v] = [col; row] = B (rho / r) (x, y) + (yc, xc), B = [1 e; d c] on ovo (x, y).
   Eigen::Matrix2d B;
   B << 1.0, p.e, p.d, p.c;
@@ -284,7 +285,7 @@ std::optional<Vec2> OcamCamera::project(const Vec3& p_C,
   if (r < 1e-12 * std::sqrt(n2)) {
     if (d_px_d_p) {
       d_px_d_p->setZero();
-      d_px_d_p->leftCols<2>() = B * (drho / z);
+      d_px_d_p->leftCols<2>() = B * (dRho() / z);
     }
     return centre;
   }
@@ -293,7 +294,7 @@ std::optional<Vec2> OcamCamera::project(const Vec3& p_C,
   if (d_px_d_p) {
     const Eigen::RowVector3d d_r(x / r, y / r, 0.0);
     const Eigen::RowVector3d d_phi = Eigen::RowVector3d(z * x / r, z * y / r, -r) / n2;
-    const Eigen::RowVector3d d_g = drho * d_phi / r - rho / (r * r) * d_r;
+    const Eigen::RowVector3d d_g = dRho() * d_phi / r - rho / (r * r) * d_r;
     Eigen::Matrix<double, 2, 3> d_w = Vec2(x, y) * d_g;
     d_w(0, 0) += g;
     d_w(1, 1) += g;
