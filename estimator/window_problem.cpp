@@ -256,10 +256,11 @@ SolveSummary solveFactors(std::vector<FactorSpec> factors, const std::vector<Key
 
 bool lidarRangeDisagrees(const LidarAssociation& a, const Vec3& p_W, const SE3& T_L_W,
                          double gate_m, double gate_fraction, double ground_gate_m) {
-  Vec3 p_L = T_L_W * p_W;
-  if (!a.ground_up_L.isZero()) return std::abs(a.ground_up_L.dot(p_L) - a.range_m) > ground_gate_m;
-  if (a.planar) p_L.z() = 0.0;
-  return std::abs(p_L.norm() - a.range_m) > std::max(gate_m, gate_fraction * a.range_m);
+  const auto value = factors::lidarMeasuredValue(T_L_W * p_W, a.planar, a.ground_up_L);
+  if (!value) return true;  // the landmark sits on the LiDAR
+  const double gate =
+      a.ground_up_L.isZero() ? std::max(gate_m, gate_fraction * a.range_m) : ground_gate_m;
+  return std::abs(*value - a.range_m) > gate;
 }
 
 void repropagateGyro(const std::vector<Keyframe*>& keyframes) {

@@ -7,24 +7,20 @@ namespace ovo::factors {
 namespace {
 constexpr double kMinInverseDepth = 1e-6;  // 1/m: 1000 km
 constexpr double kMinDistance = 1e-9;      // m
-// What the association measures of the landmark point p_L, and its gradient d value / d p_L: the
-// height up . p_L on a ground plane (up non-zero), else the distance (in the scan plane when
-// planar). False when the distance vanishes.
-bool measure(Vec3 p_L, bool planar, const Vec3& up, double* value, Eigen::RowVector3d* grad) {
-  if (!up.isZero()) {
-    *value = up.dot(p_L);
-    *grad = up.transpose();
-    return true;
+}  // namespace
+
+std::optional<double> lidarMeasuredValue(Vec3 p_L, bool planar, const Vec3& ground_up_L,
+                                         Eigen::RowVector3d* grad) {
+  if (!ground_up_L.isZero()) {
+    if (grad) *grad = ground_up_L.transpose();
+    return ground_up_L.dot(p_L);
   }
   if (planar) p_L.z() = 0.0;  // the distance in the scan plane; its gradient has no z part
   const double d = p_L.norm();
-  if (!(d > kMinDistance)) return false;
-  *value = d;
-  *grad = (p_L / d).transpose();
-  return true;
+  if (!(d > kMinDistance)) return std::nullopt;
+  if (grad) *grad = (p_L / d).transpose();
+  return d;
 }
-
-}  // namespace
 
 LidarRangeFactor::LidarRangeFactor(const Vec3& bearing_Ca, double range_m, const SE3& T_B_C,
                                    const SE3& T_B_L, double sigma_m, bool planar,
@@ -54,10 +50,10 @@ bool LidarRangeFactor::Evaluate(double const* const* parameters, double* residua
   const Vec3 p_W = Rp_W + p_a;
   const Mat3 R_L_W = R_L_B_ * R_W_Bk.transpose();
   const Vec3 p_L = R_L_W * (p_W - p_k) - R_L_B_ * t_B_L_;
-  double value;
   Eigen::RowVector3d grad;
-  if (!measure(p_L, planar_, ground_up_L_, &value, &grad)) return false;
-  residuals[0] = (value - range_m_) * inv_sigma_;
+  const auto value = lidarMeasuredValue(p_L, planar_, ground_up_L_, &grad);
+  if (!value) return false;
+  residuals[0] = (*value - range_m_) * inv_sigma_;
   if (!jacobians) return true;
 
   const Eigen::RowVector3d dr_dpW = inv_sigma_ * grad * R_L_W;  // dr/dp_W
@@ -88,10 +84,10 @@ bool LidarRangeAnchorFactor::Evaluate(double const* const* parameters, double* r
                                       double** jacobians) const {
   const double rho = parameters[0][0];
   if (!(rho > kMinInverseDepth)) return false;
-  double value;
   Eigen::RowVector3d grad;
-  if (!measure(bearing_L_ / rho + t_L_C_, planar_, ground_up_L_, &value, &grad)) return false;
-  residuals[0] = (value - range_m_) * inv_sigma_;
+  const auto value = lidarMeasuredValue(bearing_L_ / rho + t_L_C_, planar_, ground_up_L_, &grad);
+  if (!value) return false;
+  residuals[0] = (*value - range_m_) * inv_sigma_;
   if (jacobians && jacobians[0])
     jacobians[0][0] = inv_sigma_ * grad.dot(bearing_L_) * (-1.0 / (rho * rho));
   return true;

@@ -4,10 +4,19 @@
 
 #include <ceres/sized_cost_function.h>
 
+#include <optional>
+
 #include "common/types.hpp"
 #include "factors/parameterization.hpp"
 
 namespace ovo::factors {
+
+/// What a LiDAR association measures of the landmark point p_L (LiDAR frame): its height
+/// ground_up_L . p_L on a ground plane (ground_up_L non-zero), else its distance (in the scan plane
+/// when planar). nullopt when the distance vanishes; grad (optional): d value / d p_L. The factors
+/// below and the estimator's outlier gate read the measurement through this one function.
+std::optional<double> lidarMeasuredValue(Vec3 p_L, bool planar, const Vec3& ground_up_L,
+                                         Eigen::RowVector3d* grad = nullptr);
 
 /// A beam of the scan taken at keyframe k (measured range r in m; its angle phi only serves the
 /// association) and a landmark anchored in keyframe a (unit bearing b_a in C_a, inverse depth rho):
