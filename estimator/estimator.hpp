@@ -18,6 +18,9 @@
 
 namespace ovo::estimator {
 
+/// The body's up axis (B: x forward, y left, z up) in the frame of a sensor mounted at T_B_S.
+inline Vec3 bodyUpIn(const SE3& T_B_S) { return T_B_S.linear().transpose() * Vec3::UnitZ(); }
+
 /// What the estimator knows about the sensors: camera model, extrinsics and noise figures.
 struct SensorSetup {
   camera::Camera camera;

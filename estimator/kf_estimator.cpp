@@ -137,7 +137,7 @@ class KfEstimator final : public Estimator {
         options_(readKfEstimatorOptions(config, setup)),
         chain_(setup.camera, config),
         filter_(options_.filter) {
-    up_C_ = setup_.T_B_C.linear().transpose() * Vec3::UnitZ();
+    up_C_ = bodyUpIn(setup_.T_B_C);
     T_C_L_ = cameraFromLidar(setup_.T_B_C, setup_.T_B_L);
     height_m_ = options_.camera_height_m > 0 ? options_.camera_height_m
                                              : setup_.camera_height_m.value_or(0.0);

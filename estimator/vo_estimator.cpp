@@ -30,7 +30,7 @@ class VoEstimator final : public Estimator {
  public:
   VoEstimator(const SensorSetup& setup, const Config& config)
       : setup_(setup), options_(readVoOptions(config)), chain_(setup.camera, config) {
-    up_C_ = setup_.T_B_C.linear().transpose() * Vec3::UnitZ();
+    up_C_ = bodyUpIn(setup_.T_B_C);
     height_m_ = options_.camera_height_m > 0 ? options_.camera_height_m
                                              : setup_.camera_height_m.value_or(0.0);
     if (height_m_ <= 0)

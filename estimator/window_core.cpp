@@ -572,8 +572,8 @@ void WindowCore::associateLidar(Keyframe& kf, bool gate_depth) {
     const bool skip_ground = options_.lidar_ground_beams == "skip";
     const SE3 T_C_L = cameraFromLidar(setup_.T_B_C, setup_.T_B_L);
     const SE3 T_L_C = T_C_L.inverse();
-    const Vec3 up_C = setup_.T_B_C.rotation().transpose() * Vec3::UnitZ();
-    const Vec3 up_L = setup_.T_B_L.rotation().transpose() * Vec3::UnitZ();
+    const Vec3 up_C = bodyUpIn(setup_.T_B_C);
+    const Vec3 up_L = bodyUpIn(setup_.T_B_L);
     for (const auto& [id, o] : kf.observations) {
       if (have.count(id) || kf.lidar_rejected.count(id)) continue;
       const auto p_W = map_.pointW(id, setup_.T_B_C);
@@ -851,7 +851,7 @@ bool WindowCore::tryInitialize(const VisualFrame& frame, const SE3& T_W_B_pred,
   std::optional<double> scale;
   std::optional<double> ground_scale;
   if (setup_.camera_height_m) {
-    const Vec3 up_C0 = R_B_C.transpose() * Vec3::UnitZ();
+    const Vec3 up_C0 = bodyUpIn(setup_.T_B_C);
     if (auto plane = fitGroundPlane(tv->p_C0, up_C0, ground_options_))
       if (plane->height > 1e-9) ground_scale = *setup_.camera_height_m / plane->height;
   }

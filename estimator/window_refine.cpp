@@ -5,6 +5,7 @@
 #include <map>
 #include <memory>
 
+#include "estimator/estimator.hpp"
 #include "factors/pose_prior_factor.hpp"
 #include "frontend/triangulation.hpp"
 
@@ -66,7 +67,7 @@ void labelGroundLandmarks(std::unordered_map<TrackId, Landmark>& landmarks,
                           const GroundPlaneOptions& ground_options) {
   if (!(model.camera_height_m > 0.0)) return;
   const double h = model.camera_height_m;
-  const Vec3 up_prior_C = model.T_B_C.linear().transpose() * Vec3::UnitZ();
+  const Vec3 up_prior_C = bodyUpIn(model.T_B_C);
   const double min_down = std::sin(options.ground_min_depression_deg * kDegToRad);
   std::unordered_map<int, std::vector<Landmark*>> by_anchor;
   for (auto& [id, lm] : landmarks)
