@@ -346,20 +346,21 @@ TEST(WindowCore, AmbiguousLidarVoteAtInitialisationIsSettledByTheGroundPlane) {
 }
 
 /// RMS position error (m) against the truth (W = B at frame 0) of the frames from `first` on.
-double positionRmse(const SyntheticSequence& seq, const Trajectory& traj, std::size_t first) {
-  double sum = 0.0;
-  for (std::size_t i = first; i < seq.frames.size(); ++i)
-    sum += (traj[i].T_W_B.translation() - truthRel(seq, i).translation()).squaredNorm();
-  return std::sqrt(sum / static_cast<double>(seq.frames.size() - first));
-}
+// Position (m) and rotation (deg) RMSE against the truth from frame `first` on.
+struct PoseRmse {
+  double position_m = 0.0, rotation_deg = 0.0;
+};
 
-double rotationRmseDeg(const SyntheticSequence& seq, const Trajectory& traj, std::size_t first) {
-  double sum = 0.0;
+PoseRmse poseRmse(const SyntheticSequence& seq, const Trajectory& traj, std::size_t first) {
+  double sum_p = 0.0, sum_r = 0.0;
   for (std::size_t i = first; i < seq.frames.size(); ++i) {
-    const double a = so3::angle(traj[i].T_W_B.linear().transpose() * truthRel(seq, i).linear());
-    sum += a * a;
+    const SE3 truth = truthRel(seq, i);
+    sum_p += (traj[i].T_W_B.translation() - truth.translation()).squaredNorm();
+    const double a = so3::angle(traj[i].T_W_B.linear().transpose() * truth.linear());
+    sum_r += a * a;
   }
-  return std::sqrt(sum / static_cast<double>(seq.frames.size() - first)) * 180.0 / M_PI;
+  const double n = static_cast<double>(seq.frames.size() - first);
+  return {std::sqrt(sum_p / n), std::sqrt(sum_r / n) * 180.0 / M_PI};
 }
 
 TEST(WindowCore, FullRefinementMatchesTheOnlineWindow) {
@@ -395,14 +396,13 @@ TEST(WindowCore, FullRefinementMatchesTheOnlineWindow) {
   while (first < online.estimates.size() && online.estimates[first].status != "initialized")
     ++first;
   ASSERT_LT(first, seq.frames.size() / 2);
-  const double rmse_online = positionRmse(seq, online.trajectory, first);
-  const double rmse_full = positionRmse(seq, full, first);
-  std::printf("position RMSE online %.4f m, full refinement %.4f m (path %.1f m)\n", rmse_online,
-              rmse_full, pathLength(seq));
-  EXPECT_LT(rmse_full, 0.016);
-  EXPECT_LT(rmse_full, 1.1 * rmse_online);
-  const double rot_online = rotationRmseDeg(seq, online.trajectory, first);
-  const double rot_full = rotationRmseDeg(seq, full, first);
+  const PoseRmse online_rmse = poseRmse(seq, online.trajectory, first);
+  const PoseRmse full_rmse = poseRmse(seq, full, first);
+  std::printf("position RMSE online %.4f m, full refinement %.4f m (path %.1f m)\n",
+              online_rmse.position_m, full_rmse.position_m, pathLength(seq));
+  EXPECT_LT(full_rmse.position_m, 0.016);
+  EXPECT_LT(full_rmse.position_m, 1.1 * online_rmse.position_m);
+  const double rot_online = online_rmse.rotation_deg, rot_full = full_rmse.rotation_deg;
   std::printf("rotation RMSE online %.3f deg, full refinement %.3f deg\n", rot_online, rot_full);
   EXPECT_LE(rot_full, 1.1 * rot_online + 0.02);
 }
