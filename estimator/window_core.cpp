@@ -903,12 +903,26 @@ bool WindowCore::tryInitialize(const VisualFrame& frame, const SE3& T_W_B_pred,
   // A window started at a wrong scale keeps it: the LiDAR and ground gates then reject every
   // measurement that would correct it. With a scale sensor, wait for a frame that gives a scale.
   const bool can_scale = use_lidar_ || setup_.camera_height_m.has_value();
-  if (!scale && can_scale && can_defer) {
-    ++scale_deferrals_;
-    note("no LiDAR or ground-plane scale at an initialisation: put off");
-    return false;
+  if (!scale && can_scale) {
+    if (!scale_wait_since_) scale_wait_since_ = frame.t_ns;
+    if (can_defer) {
+      ++scale_deferrals_;
+      note("no LiDAR or ground-plane scale at an initialisation: put off");
+      return false;
+    }
+    if (toSeconds(frame.t_ns - *scale_wait_since_) < kMaxScaleWaitS) {
+      // The shared tracks run out (or the reference waited long). A unit baseline now would keep
+      // a wrong scale for good (10x on a spin with 60 tracks a keyframe); a new reference here
+      // loses the motion since the old one, and the scale comes with a later frame.
+      note("no LiDAR or ground-plane scale at an initialisation as the shared tracks ran out: "
+           "the two-view reference restarted");
+      scale_deferrals_ = 0;
+      startReference(frame, T_W_B_pred);
+      return false;
+    }
   }
   scale_deferrals_ = 0;
+  scale_wait_since_.reset();
   if (!scale) {
     scale = 1.0;
     note("initialisation without LiDAR or ground-plane scale: unit baseline");

@@ -130,9 +130,13 @@ class WindowCore {
   std::optional<std::pair<Timestamp, Vec3>> carried_bias_;
   bool lidar_scale_ = false;  // the current segment's scale came from the LiDAR
   // Initialisations put off in a row for an ambiguous or missing scale; at the limit the ground
-  // plane (then a unit baseline) is used.
+  // plane is used, and without a scale the reference restarts.
   static constexpr int kMaxScaleDeferrals = 20;
   int scale_deferrals_ = 0;
+  // Since when no initialisation found a scale (with a scale sensor): references restart for up
+  // to kMaxScaleWaitS before a unit baseline is accepted.
+  static constexpr double kMaxScaleWaitS = 2.0;
+  std::optional<Timestamp> scale_wait_since_;
 
   // Last frame.
   bool have_last_ = false;

@@ -330,6 +330,51 @@ TEST(WindowCore, WithoutLidarFallsBackToTheGroundPlaneAndSaysSo) {
   EXPECT_NEAR(scale, 1.0, 0.15);
 }
 
+TEST(WindowCore, ALidarThatStartsSeeingLateStillGivesTheStartItsScale) {
+  // No camera height, and no scan in the first 2 s (a LiDAR that sees nothing yet). Each
+  // reference puts the start off for 20 frames; a unit baseline then would keep a wrong scale for
+  // good (the LiDAR gate rejects every range that would correct it). The reference restarts
+  // instead, for up to 2 s, and the first scans give the scale.
+  SyntheticOptions o;
+  auto seq = makeSyntheticSequence(o);
+  seq.setup.camera_height_m.reset();
+  const Timestamp late = seq.frames.front().t_ns + 2'000'000'000LL;
+  std::erase_if(seq.scans, [&](const LidarScan& s) { return s.t_ns < late; });
+  const auto r = run(seq);
+  expectAllFinite(r);
+  EXPECT_TRUE(noted(r, "the two-view reference restarted"));
+  EXPECT_FALSE(noted(r, "unit baseline"));
+  EXPECT_GT(r.stats.lidar_scale_frames, 0);
+  // The motion before the restart is lost (the poses stay at the start); the scale is that of
+  // the motion from the first tracked frame on.
+  std::size_t first = r.estimates.size();
+  while (first > 0 && r.estimates[first - 1].status != "initializing") --first;
+  ASSERT_LT(first + 20, seq.frames.size());
+  const std::size_t last = seq.frames.size() - 1;
+  const double moved =
+      (r.trajectory[last].T_W_B.translation() - r.trajectory[first].T_W_B.translation()).norm();
+  const double moved_true =
+      (truthRel(seq, last).translation() - truthRel(seq, first).translation()).norm();
+  EXPECT_NEAR(moved / moved_true, 1.0, 0.05);
+}
+
+TEST(WindowCore, WithNoScaleAtAllItStartsAtAUnitBaselineWithinAFewSeconds) {
+  // A LiDAR that never sees anything and no camera height: after putting off and restarting
+  // for 2 s the window starts at a unit baseline and says so, rather than never.
+  SyntheticOptions o;
+  auto seq = makeSyntheticSequence(o);
+  seq.setup.camera_height_m.reset();
+  seq.scans.clear();
+  const auto r = run(seq);
+  expectAllFinite(r);
+  EXPECT_TRUE(noted(r, "unit baseline"));
+  const auto last_waiting =
+      std::find_if(r.estimates.rbegin(), r.estimates.rend(),
+                   [](const FrameEstimate& e) { return e.status == "initializing"; });
+  ASSERT_NE(last_waiting, r.estimates.rend());
+  EXPECT_LT(toSeconds(last_waiting->t_ns - seq.frames.front().t_ns), 3.5);
+}
+
 TEST(WindowCore, AmbiguousLidarVoteAtInitialisationIsSettledByTheGroundPlane) {
   // In the synthetic row, beams next to tracked points give two groups of range ratios at
   // initialisation (11 near the true scale, 8 about 2.4x off). Putting the start off only loses
