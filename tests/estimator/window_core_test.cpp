@@ -346,7 +346,7 @@ TEST(WindowCore, ALidarThatStartsSeeingLateStillGivesTheStartItsScale) {
   EXPECT_FALSE(noted(r, "unit baseline"));
   EXPECT_GT(r.stats.lidar_scale_frames, 0);
   // The motion before the restart is lost (the poses stay at the start); the scale is that of
-  // the motion from the first tracked frame on.
+  // the motion from the initialisation on.
   std::size_t first = r.estimates.size();
   while (first > 0 && r.estimates[first - 1].status != "initializing") --first;
   ASSERT_LT(first + 20, seq.frames.size());
@@ -390,8 +390,8 @@ TEST(WindowCore, AmbiguousLidarVoteAtInitialisationIsSettledByTheGroundPlane) {
   EXPECT_NEAR(scale, 1.0, 0.03);
 }
 
-/// RMS position error (m) against the truth (W = B at frame 0) of the frames from `first` on.
-// Position (m) and rotation (deg) RMSE against the truth from frame `first` on.
+/// RMS position (m) and rotation (deg) errors against the truth (W = B at frame 0) of the frames
+/// from `first` on.
 struct PoseRmse {
   double position_m = 0.0, rotation_deg = 0.0;
 };
