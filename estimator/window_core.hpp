@@ -133,8 +133,8 @@ class WindowCore {
   // plane is used, and without a scale the reference restarts.
   static constexpr int kMaxScaleDeferrals = 20;
   int scale_deferrals_ = 0;
-  // Since when no initialisation found a scale (with a scale sensor): references restart for up
-  // to kMaxScaleWaitS before a unit baseline is accepted.
+  // Since when no initialisation found a scale (with a scale sensor; a standstill restarts it):
+  // references restart for up to kMaxScaleWaitS of motion before a unit baseline is accepted.
   static constexpr double kMaxScaleWaitS = 2.0;
   std::optional<Timestamp> scale_wait_since_;
 

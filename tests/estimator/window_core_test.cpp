@@ -375,6 +375,26 @@ TEST(WindowCore, WithNoScaleAtAllItStartsAtAUnitBaselineWithinAFewSeconds) {
   EXPECT_LT(toSeconds(last_waiting->t_ns - seq.frames.front().t_ns), 3.5);
 }
 
+TEST(WindowCore, AStopWhileWaitingForAScaleRestartsTheWait) {
+  // No camera height and no scan before 4 s. The robot creeps off without a scale, stands 1.5 s
+  // and drives on: waiting while still loses nothing, so the 2 s of waiting start again when it
+  // moves, and the first scans (1 s later) still give the start its scale. It takes both: the
+  // wait restarted by the stop, and references restarted on frames with a scan (one view's
+  // beams alone are too few here).
+  SyntheticOptions o;
+  o.duration_s = 8.0;
+  o.stop_from_s = 1.5;
+  o.stop_to_s = 3.0;
+  auto seq = makeSyntheticSequence(o);
+  seq.setup.camera_height_m.reset();
+  const Timestamp late = seq.frames.front().t_ns + 4'000'000'000LL;
+  std::erase_if(seq.scans, [&](const LidarScan& s) { return s.t_ns < late; });
+  const auto r = run(seq);
+  expectAllFinite(r);
+  EXPECT_FALSE(noted(r, "unit baseline"));
+  EXPECT_GT(r.stats.lidar_scale_frames, 0);
+}
+
 TEST(WindowCore, AmbiguousLidarVoteAtInitialisationIsSettledByTheGroundPlane) {
   // In the synthetic row, beams next to tracked points give two groups of range ratios at
   // initialisation (11 near the true scale, 8 about 2.4x off). Putting the start off only loses
