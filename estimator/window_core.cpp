@@ -322,7 +322,7 @@ FrameEstimate WindowCore::processFrame(const VisualFrame& frame_in) {
       // Held before initialisation: the pose is known, and the two-view reference moves to
       // the last still frame so that no translation is lost when the robot starts.
       e.tracked = true;
-      if (!use_lidar_ || scanAt(frame.t_ns) != nullptr) startReference(frame, e.T_W_B);
+      if (canReference(frame.t_ns)) startReference(frame, e.T_W_B);
       scale_wait_since_.reset();  // waiting while still loses no motion: the wait restarts
     }
   } else if (!initialized_) {
@@ -914,9 +914,8 @@ bool WindowCore::tryInitialize(const VisualFrame& frame, const SE3& T_W_B_pred,
     if (toSeconds(frame.t_ns - *scale_wait_since_) < kMaxScaleWaitS) {
       // The shared tracks run out (or the reference waited long). A unit baseline now would keep
       // a wrong scale for good (10x on a spin with 60 tracks a keyframe); a new reference here
-      // loses the motion since the old one, and the scale comes with a later frame. With the
-      // LiDAR, the new reference is a frame with a scan (both views then give range ratios).
-      if (use_lidar_ && scanAt(frame.t_ns) == nullptr) return false;
+      // loses the motion since the old one, and the scale comes with a later frame.
+      if (!canReference(frame.t_ns)) return false;
       note("no LiDAR or ground-plane scale at an initialisation as the shared tracks ran out: "
            "the two-view reference restarted");
       scale_deferrals_ = 0;

@@ -84,6 +84,9 @@ class WindowCore {
   std::optional<factors::GyroPreintegration> preintegrate(Timestamp t0, Timestamp t1,
                                                           const Vec3& bias) const;
   const LidarScan* scanAt(Timestamp t_ns) const;
+  /// A frame a two-view reference may start at: with the LiDAR, one with a scan (both views then
+  /// give range ratios for the scale).
+  bool canReference(Timestamp t_ns) const { return !use_lidar_ || scanAt(t_ns) != nullptr; }
   bool tryInitialize(const VisualFrame& frame, const SE3& T_W_B_pred, FrameEstimate* out);
   void startReference(const VisualFrame& frame, const SE3& T_W_B);
   /// A new keyframe observing `keep` and a spread selection of `candidates` (tracks next to
