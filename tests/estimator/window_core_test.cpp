@@ -330,6 +330,14 @@ TEST(WindowCore, WithoutLidarFallsBackToTheGroundPlaneAndSaysSo) {
   EXPECT_NEAR(scale, 1.0, 0.15);
 }
 
+// A rig without a camera height whose LiDAR sees nothing before `seconds` into the sequence:
+// no scale until then.
+void seeNoScaleBefore(SyntheticSequence* seq, double seconds) {
+  seq->setup.camera_height_m.reset();
+  const Timestamp until = seq->frames.front().t_ns + static_cast<Timestamp>(seconds * 1e9);
+  std::erase_if(seq->scans, [&](const LidarScan& s) { return s.t_ns < until; });
+}
+
 TEST(WindowCore, ALidarThatStartsSeeingLateStillGivesTheStartItsScale) {
   // No camera height, and no scan in the first 2 s (a LiDAR that sees nothing yet). Each
   // reference puts the start off for 20 frames; a unit baseline then would keep a wrong scale for
@@ -337,9 +345,7 @@ TEST(WindowCore, ALidarThatStartsSeeingLateStillGivesTheStartItsScale) {
   // instead, for up to 2 s, and the first scans give the scale.
   SyntheticOptions o;
   auto seq = makeSyntheticSequence(o);
-  seq.setup.camera_height_m.reset();
-  const Timestamp late = seq.frames.front().t_ns + 2'000'000'000LL;
-  std::erase_if(seq.scans, [&](const LidarScan& s) { return s.t_ns < late; });
+  seeNoScaleBefore(&seq, 2.0);
   const auto r = run(seq);
   expectAllFinite(r);
   EXPECT_TRUE(noted(r, "the two-view reference restarted"));
@@ -363,8 +369,7 @@ TEST(WindowCore, WithNoScaleAtAllItStartsAtAUnitBaselineWithinAFewSeconds) {
   // for 2 s the window starts at a unit baseline and says so, rather than never.
   SyntheticOptions o;
   auto seq = makeSyntheticSequence(o);
-  seq.setup.camera_height_m.reset();
-  seq.scans.clear();
+  seeNoScaleBefore(&seq, o.duration_s + 1.0);
   const auto r = run(seq);
   expectAllFinite(r);
   EXPECT_TRUE(noted(r, "unit baseline"));
@@ -386,9 +391,7 @@ TEST(WindowCore, AStopWhileWaitingForAScaleRestartsTheWait) {
   o.stop_from_s = 1.5;
   o.stop_to_s = 3.0;
   auto seq = makeSyntheticSequence(o);
-  seq.setup.camera_height_m.reset();
-  const Timestamp late = seq.frames.front().t_ns + 4'000'000'000LL;
-  std::erase_if(seq.scans, [&](const LidarScan& s) { return s.t_ns < late; });
+  seeNoScaleBefore(&seq, 4.0);
   const auto r = run(seq);
   expectAllFinite(r);
   EXPECT_FALSE(noted(r, "unit baseline"));
