@@ -187,6 +187,45 @@ void WindowCore::Reference::keepSightings(int frame_record, const VisualFrame& f
   pending.emplace_back(frame_record, std::move(seen));
 }
 
+SE3 WindowCore::poseFromReference(const VisualFrame& frame, const SE3& T_W_B_pred) const {
+  const Reference& ref = *reference_;
+  std::vector<Vec3> b0, b1;
+  for (const auto& o : frame.observations) {
+    auto it = ref.obs.find(o.track_id);
+    if (it == ref.obs.end()) continue;
+    b0.push_back(it->second.bearing_C);
+    b1.push_back(o.bearing_C);
+  }
+  if (static_cast<int>(b0.size()) < kMinReferenceTracks) return T_W_B_pred;
+  const Mat3 R_B_C = setup_.T_B_C.linear();
+  Mat3 R_C1_C0 = R_B_C.transpose() * T_W_B_pred.linear().transpose() * ref.T_W_B.linear() * R_B_C;
+  if (!use_gyro_) {
+    const auto rp = relpose_->estimate(b0, b1);
+    using S = frontend::RelativePoseResult::Status;
+    if (rp.status != S::kOk && rp.status != S::kLowParallax) return T_W_B_pred;
+    R_C1_C0 = rp.R_cur_prev;
+  }
+  SE3 T_C1_C0 = SE3::Identity();
+  T_C1_C0.linear() = R_C1_C0;
+  bool scaled = false;
+  if (setup_.camera_height_m) {
+    TwoViewOptions tvo;
+    tvo.min_parallax_deg = options_.landmark_min_parallax_deg;
+    tvo.min_points = ground_options_.min_inliers;
+    tvo.inlier_rad = std::max(3.0 * model_.bearing_sigma_rad, 1e-3);
+    if (auto tv = twoViewKnownRotation(b0, b1, R_C1_C0, tvo))
+      if (auto plane = fitGroundPlane(tv->p_C0, bodyUpIn(setup_.T_B_C), ground_options_))
+        if (plane->height > 1e-9) {
+          T_C1_C0.translation() = (*setup_.camera_height_m / plane->height) * tv->t_C1_C0;
+          scaled = true;
+        }
+  }
+  SE3 T_W_B = ref.T_W_B * setup_.T_B_C * T_C1_C0.inverse() * setup_.T_B_C.inverse();
+  T_W_B.linear() = so3::orthonormalize(T_W_B.linear());
+  if (!scaled) T_W_B.translation() = T_W_B_pred.translation();
+  return allFinite(T_W_B) ? T_W_B : T_W_B_pred;
+}
+
 WindowCore::Reference WindowCore::makeReference(const VisualFrame& frame, const SE3& T_W_B) const {
   Reference r;
   r.t_ns = frame.t_ns;
@@ -328,10 +367,11 @@ FrameEstimate WindowCore::processFrame(const VisualFrame& frame_in) {
   } else if (!initialized_) {
     if (!reference_) startReference(frame, T_pred);
     velocity_W_ *= std::pow(options_.velocity_decay_per_s, dt);
-    if (tryInitialize(frame, T_pred, &e)) {
+    const SE3 T_ref = poseFromReference(frame, T_pred);
+    e.T_W_B = T_ref;
+    if (tryInitialize(frame, T_ref, &e)) {
       ref_kf = map_.keyframes.back()->id;
     } else {
-      e.T_W_B = T_pred;
       e.tracked = false;
       e.status = "initializing";
       if (reference_) reference_->keepSightings(static_cast<int>(frames_.size()), frame);

@@ -89,6 +89,12 @@ class WindowCore {
   bool canReference(Timestamp t_ns) const { return !use_lidar_ || scanAt(t_ns) != nullptr; }
   bool tryInitialize(const VisualFrame& frame, const SE3& T_W_B_pred, FrameEstimate* out);
   void startReference(const VisualFrame& frame, const SE3& T_W_B);
+  // Before initialisation: the frame's pose from its sightings of the two-view reference's tracks,
+  // instead of the reference's held pose. The rotation is the gyro's (in T_W_B_pred), else the
+  // two-view one; the translation is measured where the ground plane gives the two-view points a
+  // scale, else predicted. A reference that restarts (its tracks ran out, or no scale came)
+  // starts from there, so the motion since the old reference is kept.
+  SE3 poseFromReference(const VisualFrame& frame, const SE3& T_W_B_pred) const;
   /// A new keyframe observing `keep` and a spread selection of `candidates` (tracks next to
   /// LiDAR beams first); keep == nullptr and no scan: all candidates.
   Keyframe* addKeyframe(Timestamp t_ns, const SE3& T_W_B, const Vec3& bias,
@@ -139,6 +145,7 @@ class WindowCore {
   // Since when no initialisation found a scale (with a scale sensor; a standstill restarts it):
   // references restart for up to kMaxScaleWaitS of motion before a unit baseline is accepted.
   static constexpr double kMaxScaleWaitS = 2.0;
+  static constexpr int kMinReferenceTracks = 20;  // shared tracks to measure a pose before initialisation
   std::optional<Timestamp> scale_wait_since_;
 
   // Last frame.
