@@ -112,6 +112,9 @@ WindowCore::WindowCore(const SensorSetup& setup, const WindowOptions& options,
   model_.max_rho = 1.0 / (0.5 * options.landmark_min_depth_m);
   use_gyro_ = options.use_gyro && setup.has_gyro;
   use_lidar_ = options.use_lidar && setup.has_lidar;
+  // Without a LiDAR the ground is the only scale after the start (KITTI 07: a start from a
+  // 12-point plane at 0.6x the scale was kept to the end with the tight gate).
+  if (!use_lidar_) options_.ground_scale_gate = options_.ground_scale_gate_no_lidar;
   model_.use_gyro = use_gyro_;
   if (options.use_ground_height && setup.camera_height_m && *setup.camera_height_m > 0.0) {
     model_.camera_height_m = *setup.camera_height_m;

@@ -109,11 +109,13 @@ WindowOptions readWindowOptions(const Config& c) {
   o.use_ground_height = c.get<bool>(p + "use_ground_height", o.use_ground_height);
   o.ground_height_sigma_m =
       c.getInRange(p + "ground_height_sigma_m", o.ground_height_sigma_m, 1e-4, 10.0);
-  o.ground_max_distance_m =
-      c.getInRange(p + "ground_max_distance_m", o.ground_max_distance_m, 0.1, 1000.0);
+  o.ground_max_distance_heights = c.getInRange(p + "ground_max_distance_heights",
+                                               o.ground_max_distance_heights, 0.1, 1000.0);
   o.ground_min_depression_deg =
       c.getInRange(p + "ground_min_depression_deg", o.ground_min_depression_deg, 0.0, 89.0);
   o.ground_scale_gate = c.getInRange(p + "ground_scale_gate", o.ground_scale_gate, 0.0, 1.0);
+  o.ground_scale_gate_no_lidar =
+      c.getInRange(p + "ground_scale_gate_no_lidar", o.ground_scale_gate_no_lidar, 0.0, 1.0);
   o.ground_inlier_fraction =
       c.getInRange(p + "ground_inlier_fraction", o.ground_inlier_fraction, 1e-4, 1.0);
   o.marginalize_reanchored = c.getChoice(p + "marginalize_reanchored", o.marginalize_reanchored,

@@ -90,7 +90,7 @@ void labelGroundLandmarks(std::unordered_map<TrackId, Landmark>& landmarks,
       const double down = -plane->up_C.dot(lm.bearing_anchor_C);
       const double depth_below = -plane->up_C.dot(p_C);
       const double dist = (p_C + depth_below * plane->up_C).norm();  // along the ground
-      if (down < min_down || dist > options.ground_max_distance_m ||
+      if (down < min_down || dist > options.ground_max_distance_heights * h ||
           std::abs(depth_below - plane->height) > options.ground_inlier_fraction * h)
         continue;
       lm.on_ground = true;

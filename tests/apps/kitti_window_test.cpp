@@ -1,0 +1,35 @@
+// The default estimator on real data: `ovo run` (window, no gyro, no LiDAR: ground-plane scale)
+// on the first 160 frames of KITTI 07, scored against its ground truth.
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <nlohmann/json.hpp>
+
+#include "tests/test_support.hpp"
+
+namespace ovo::test {
+namespace {
+
+namespace fs = std::filesystem;
+
+TEST(KittiWindow, FollowsTheFirstTurnAndHoldsTheGroundPlaneScale) {
+  // The car pulls away turning left (about 50 deg in the first 5 s): the window initialises only
+  // after 3.3 s, as the reference's tracks run out twice before. Measured: ATE 1.91 m (2.1 % of
+  // the 90.6 m), final yaw 1.75 deg, scale -5.4 % (vo: 1.12 m, 0.30 deg, -3.6 %). Before the
+  // turn before initialisation was kept the final yaw was 45 deg; with the tight ground gate the
+  // scale stayed at -32 %.
+  OVO_REQUIRE_DATA("kitti07-first160/image_0/000000.png");
+  const fs::path out = tempDir() / "kitti_window";
+  ASSERT_EQ(runOvo("run --quiet --dataset '" + sharedData("kitti07-first160").string() +
+                   "' --out '" + out.string() + "'"),
+            0);
+  std::ifstream in(out / "metrics.json");
+  const auto m = nlohmann::json::parse(in);
+  EXPECT_EQ(m.at("frames").get<int>(), 160);
+  EXPECT_LT(m.at("final_yaw_err_deg").get<double>(), 3.0);
+  EXPECT_LT(m.at("ate_pct").get<double>(), 3.0);
+  EXPECT_LT(std::abs(m.at("scale_err_pct").get<double>()), 10.0);
+}
+
+}  // namespace
+}  // namespace ovo::test
