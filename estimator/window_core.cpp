@@ -190,15 +190,21 @@ void WindowCore::Reference::keepSightings(int frame_record, const VisualFrame& f
   pending.emplace_back(frame_record, std::move(seen));
 }
 
+void WindowCore::Reference::sharedBearings(const VisualFrame& frame, std::vector<Vec3>* b0,
+                                           std::vector<Vec3>* b1, std::vector<TrackId>* ids) const {
+  for (const auto& o : frame.observations) {
+    auto it = obs.find(o.track_id);
+    if (it == obs.end()) continue;
+    b0->push_back(it->second.bearing_C);
+    b1->push_back(o.bearing_C);
+    if (ids) ids->push_back(o.track_id);
+  }
+}
+
 SE3 WindowCore::poseFromReference(const VisualFrame& frame, const SE3& T_W_B_pred) const {
   const Reference& ref = *reference_;
   std::vector<Vec3> b0, b1;
-  for (const auto& o : frame.observations) {
-    auto it = ref.obs.find(o.track_id);
-    if (it == ref.obs.end()) continue;
-    b0.push_back(it->second.bearing_C);
-    b1.push_back(o.bearing_C);
-  }
+  ref.sharedBearings(frame, &b0, &b1);
   if (static_cast<int>(b0.size()) < kMinReferenceTracks) return T_W_B_pred;
   const Mat3 R_B_C = setup_.T_B_C.linear();
   Mat3 R_C1_C0 = R_B_C.transpose() * T_W_B_pred.linear().transpose() * ref.T_W_B.linear() * R_B_C;
@@ -851,13 +857,7 @@ bool WindowCore::tryInitialize(const VisualFrame& frame, const SE3& T_W_B_pred,
   Reference& ref = *reference_;
   std::vector<Vec3> b0, b1;
   std::vector<TrackId> ids;
-  for (const auto& o : frame.observations) {
-    auto it = ref.obs.find(o.track_id);
-    if (it == ref.obs.end()) continue;
-    b0.push_back(it->second.bearing_C);
-    b1.push_back(o.bearing_C);
-    ids.push_back(o.track_id);
-  }
+  ref.sharedBearings(frame, &b0, &b1, &ids);
   // Waiting long without enough parallax (slow or far scene): accept half the parallax.
   const bool waited = toSeconds(frame.t_ns - ref.t_ns) > options_.init_max_wait_s;
   const double min_parallax_deg = options_.init_parallax_deg * (waited ? 0.5 : 1.0);

@@ -181,6 +181,10 @@ class WindowCore {
     std::vector<std::pair<int, std::vector<TrackObservation>>> pending;
     /// Adds the frame's sightings of the reference's tracks to `pending`.
     void keepSightings(int frame_record, const VisualFrame& frame);
+    /// The bearings of the tracks the frame shares with the reference: b0 here, b1 in the frame
+    /// (and their ids when asked for), in the frame's order.
+    void sharedBearings(const VisualFrame& frame, std::vector<Vec3>* b0, std::vector<Vec3>* b1,
+                        std::vector<TrackId>* ids = nullptr) const;
   };
   std::optional<Reference> reference_;
   Reference makeReference(const VisualFrame& frame, const SE3& T_W_B) const;
