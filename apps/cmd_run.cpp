@@ -71,7 +71,7 @@ int runRun(const RunArgs& args) {
   const io::Dataset data = io::loadDataset(args.dataset);
   if (data.images.empty()) fail("{}: the dataset has no images", args.dataset);
   Trajectory groundtruth = data.groundtruth;
-  if (!args.gt.empty()) groundtruth = io::readTrajectory(args.gt).poses;
+  if (!args.gt.empty()) groundtruth = io::readGroundtruthFor(data, args.gt);
 
   const estimator::SensorSetup setup = sensorSetupFrom(data);
   auto est = estimator::makeEstimator(args.estimator, setup, config);
@@ -207,8 +207,10 @@ CommandRunner setupRun(CLI::App& sub) {
       ->check(CLI::IsMember({"window", "kf", "vo"}));
   sub.add_option("--out", args->out,
                  "Output folder (trajectory.txt, keyframes.txt, metrics.json, report.html)");
-  sub.add_option("--gt", args->gt,
-                 "Ground truth trajectory (TUM, KITTI with or without time, EuRoC csv)");
+  sub.add_option(
+      "--gt", args->gt,
+      "Ground truth trajectory (TUM, KITTI with or without time, EuRoC csv); on a KITTI folder "
+      "KITTI poses are camera poses, as the folder's own");
   sub.add_option("--set", args->sets, "Override a configuration key: key.path=value (repeatable)");
   sub.add_flag("--quiet", args->quiet, "Do not print the metrics");
   sub.add_option("--refine", args->refine,

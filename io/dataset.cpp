@@ -245,9 +245,25 @@ std::vector<Timestamp> readKittiTimes(const fs::path& file) {
 SE3 kittiBodyFromCamera() {
   SE3 T_B_C = SE3::Identity();
   T_B_C.linear() << 0, 0, 1,  //
-      -1, 0, 0,                //
+      -1, 0, 0,               //
       0, -1, 0;
   return T_B_C;
+}
+
+// KITTI ground truth, T_Wc_C in KITTI's camera-style world (the first camera frame), as T_W_B with
+// W z-up: T_W_B = A T_Wc_C A^-1, A = T_B_C. Rows without a time take times.txt's stamp by index.
+Trajectory kittiCameraPosesAsBody(Trajectory poses, bool has_time,
+                                  const std::vector<Timestamp>& times, const fs::path& pose_file,
+                                  const fs::path& times_file) {
+  if (!has_time) {
+    if (poses.size() > times.size())
+      fail("{}: {} poses but {} has only {} time stamps", pose_file.string(), poses.size(),
+           times_file.string(), times.size());
+    for (std::size_t i = 0; i < poses.size(); ++i) poses[i].t_ns = times[i];
+  }
+  const SE3 A = kittiBodyFromCamera();
+  for (auto& p : poses) p.T_W_B = A * p.T_W_B * A.inverse();
+  return poses;
 }
 
 Dataset loadKitti(const fs::path& root) {
@@ -288,8 +304,7 @@ Dataset loadKitti(const fs::path& root) {
   if (auto r = rateHz(ds.images, [](const ImageEntry& e) { return e.t_ns; }))
     ds.rig.camera_rate_hz = *r;
 
-  // Ground truth: poses*.txt or NN.txt beside image_0, T_Wc_C in KITTI's camera-style world
-  // (the first camera frame); turned into T_W_B with W z-up: T_W_B = A T_Wc_C A^-1, A = T_B_C.
+  // Ground truth: poses*.txt or NN.txt beside image_0 (camera poses, turned into T_W_B).
   std::vector<fs::path> pose_files;
   const std::regex pose_name(R"((poses.*|[0-9][0-9])\.txt)");
   for (const auto& e : fs::directory_iterator(root))
@@ -301,15 +316,9 @@ Dataset loadKitti(const fs::path& root) {
          pose_files[0].filename().string(), pose_files[1].filename().string());
   if (!pose_files.empty()) {
     bool has_time = false;
-    ds.groundtruth = readKitti(pose_files.front(), &has_time);
-    if (!has_time) {
-      if (ds.groundtruth.size() > times.size())
-        fail("{}: {} poses but {} has only {} time stamps", pose_files.front().string(),
-             ds.groundtruth.size(), times_file.string(), times.size());
-      for (std::size_t i = 0; i < ds.groundtruth.size(); ++i) ds.groundtruth[i].t_ns = times[i];
-    }
-    const SE3 A = kittiBodyFromCamera();
-    for (auto& p : ds.groundtruth) p.T_W_B = A * p.T_W_B * A.inverse();
+    Trajectory poses = readKitti(pose_files.front(), &has_time);
+    ds.groundtruth =
+        kittiCameraPosesAsBody(std::move(poses), has_time, times, pose_files.front(), times_file);
   }
   return ds;
 }
@@ -356,6 +365,14 @@ Dataset loadDataset(const fs::path& root) {
       "{}: not a dataset folder: expected cam0/ or mav0/cam0/ (EuRoC/ASL layout) or image_0/ "
       "with calib.txt and times.txt (KITTI)",
       root.string());
+}
+
+Trajectory readGroundtruthFor(const Dataset& ds, const fs::path& file) {
+  TrajectoryFile gt = readTrajectory(file);
+  if (ds.kind != "kitti" || gt.format != TrajectoryFormat::kKitti) return std::move(gt.poses);
+  const fs::path times_file = ds.root / "times.txt";
+  return kittiCameraPosesAsBody(std::move(gt.poses), gt.has_time, readKittiTimes(times_file), file,
+                                times_file);
 }
 
 cv::Mat loadImageGrey(const ImageEntry& entry) {

@@ -61,6 +61,11 @@ struct Dataset {
 /// Throws ovo::Error naming the file and line on anything missing or malformed.
 Dataset loadDataset(const std::filesystem::path& root);
 
+/// A ground-truth file for `ds` (`ovo run --gt`): TUM, KITTI or EuRoC csv, as readTrajectory()
+/// reads it. On a KITTI folder a KITTI-format file is taken as the folder's own poses file is:
+/// camera poses, turned into T_W_B, and rows without a time stamped from times.txt by index.
+Trajectory readGroundtruthFor(const Dataset& ds, const std::filesystem::path& file);
+
 /// T_B_C of the KITTI rig: body x forward, y left, z up at the camera centre, camera pitch 0.
 SE3 kittiBodyFromCamera();
 

@@ -83,6 +83,47 @@ TEST(Dataset, Kitti07First160LoadsAsItIs) {
   EXPECT_EQ(image.size(), cv::Size(1226, 370));
 }
 
+// `ovo run --gt FILE` on a KITTI folder: a KITTI poses file, with or without the time column,
+// is turned into T_W_B as the folder's own is; a TUM file (already T_W_B) is taken as it is.
+TEST(Dataset, KittiGroundTruthGivenAsAFileMatchesTheFoldersOwn) {
+  OVO_REQUIRE_DATA("kitti07-first160/poses_07_time_prefixed.txt");
+  const Dataset ds = loadDataset(test::sharedData("kitti07-first160"));
+  const fs::path timed = test::sharedData("kitti07-first160/poses_07_time_prefixed.txt");
+  const fs::path dir = test::tempDir();
+  // The same rows without the time column (the official KITTI layout), first 200 only.
+  std::ifstream in(timed);
+  std::string line, untimed;
+  for (int i = 0; i < 200 && std::getline(in, line); ++i)
+    untimed += line.substr(line.find(' ') + 1) + "\n";
+  test::writeTextFile(dir / "07.txt", untimed);
+  for (const fs::path& file : {timed, dir / "07.txt"}) {
+    SCOPED_TRACE(file.string());
+    const Trajectory gt = readGroundtruthFor(ds, file);
+    ASSERT_GE(gt.size(), 200u);
+    for (std::size_t i : {1u, 80u, 159u}) {
+      EXPECT_EQ(gt[i].t_ns, ds.groundtruth[i].t_ns);
+      EXPECT_TRUE(gt[i].T_W_B.isApprox(ds.groundtruth[i].T_W_B, 1e-12));
+    }
+  }
+  // Frame 60, after the first left turn (about 95 degrees): the body's x axis has turned to +y,
+  // a positive yaw about the z-up world's z.
+  const Vec3 x_W = ds.groundtruth[60].T_W_B.linear() * Vec3::UnitX();
+  EXPECT_NEAR(std::atan2(x_W.y(), x_W.x()), 95.0 * M_PI / 180.0, 0.05);
+  EXPECT_LT(std::abs(x_W.z()), 0.1);
+  // A TUM file is T_W_B already.
+  test::writeTextFile(dir / "gt.txt", "0.0 1 2 3 0 0 0 1\n0.1 1 2 4 0 0 0 1\n");
+  const Trajectory tum = readGroundtruthFor(ds, dir / "gt.txt");
+  ASSERT_EQ(tum.size(), 2u);
+  EXPECT_TRUE(tum[1].T_W_B.translation().isApprox(Vec3(1, 2, 4)));
+  // More untimed poses than times.txt has stamps: an error naming both files.
+  std::string many;
+  for (int i = 0; i < 1102; ++i) many += "1 0 0 0 0 1 0 0 0 0 1 0\n";
+  test::writeTextFile(dir / "long.txt", many);
+  const std::string error = errorOf([&] { readGroundtruthFor(ds, dir / "long.txt"); });
+  EXPECT_CONTAINS(error, "long.txt: 1102 poses");
+  EXPECT_CONTAINS(error, "times.txt has only 1101");
+}
+
 // A small complete ovo folder: 3 images, pinhole sensor.yaml, IMU, LiDAR, rig.yaml, ground
 // truth and the simulator's true bias.
 fs::path writeMiniDataset(const fs::path& root) {
@@ -95,32 +136,34 @@ fs::path writeMiniDataset(const fs::path& root) {
     list += std::to_string(1000000000LL + i * 50000000LL) + "," + name + "\n";
   }
   test::writeTextFile(root / "cam0" / "data.csv", list);
-  test::writeTextFile(root / "cam0" / "sensor.yaml",
-            "sensor_type: camera\n"
-            "T_BS:\n  cols: 4\n  rows: 4\n  data: [0, 0, 1, 0.1, -1, 0, 0, 0, 0, -1, 0, 0.5, 0, 0, "
-            "0, 1]\n"
-            "rate_hz: 20\nresolution: [64, 48]\ncamera_model: pinhole\n"
-            "intrinsics: [50.0, 50.0, 31.5, 23.5]\n"
-            "distortion_model: radial-tangential\ndistortion_coefficients: [0, 0, 0, 0]\n");
+  test::writeTextFile(
+      root / "cam0" / "sensor.yaml",
+      "sensor_type: camera\n"
+      "T_BS:\n  cols: 4\n  rows: 4\n  data: [0, 0, 1, 0.1, -1, 0, 0, 0, 0, -1, 0, 0.5, 0, 0, "
+      "0, 1]\n"
+      "rate_hz: 20\nresolution: [64, 48]\ncamera_model: pinhole\n"
+      "intrinsics: [50.0, 50.0, 31.5, 23.5]\n"
+      "distortion_model: radial-tangential\ndistortion_coefficients: [0, 0, 0, 0]\n");
   test::writeTextFile(root / "imu0" / "data.csv",
-            "#timestamp [ns],w_RS_S_x [rad s^-1],w_RS_S_y [rad s^-1],w_RS_S_z [rad s^-1],"
-            "a_RS_S_x [m s^-2],a_RS_S_y [m s^-2],a_RS_S_z [m s^-2]\n"
-            "1000000000,0.1,0.2,0.3,0,0,9.81\n1005000000,0.1,0.2,0.3,0,0,9.81\n");
-  test::writeTextFile(root / "lidar0" / "data.csv",
-            "#timestamp [ns],angle_min [rad],angle_increment [rad],range_min [m],range_max [m],"
-            "ranges [m]...\n"
-            "1000000000,-1.5,0.5,0.1,30,1.0,nan,2.5,40,0.05,inf,3\n"
-            "1100000000,-1.5,0.5,0.1,30,1.1,1.2,nan,nan,nan,nan,nan\n");
+                      "#timestamp [ns],w_RS_S_x [rad s^-1],w_RS_S_y [rad s^-1],w_RS_S_z [rad s^-1],"
+                      "a_RS_S_x [m s^-2],a_RS_S_y [m s^-2],a_RS_S_z [m s^-2]\n"
+                      "1000000000,0.1,0.2,0.3,0,0,9.81\n1005000000,0.1,0.2,0.3,0,0,9.81\n");
+  test::writeTextFile(
+      root / "lidar0" / "data.csv",
+      "#timestamp [ns],angle_min [rad],angle_increment [rad],range_min [m],range_max [m],"
+      "ranges [m]...\n"
+      "1000000000,-1.5,0.5,0.1,30,1.0,nan,2.5,40,0.05,inf,3\n"
+      "1100000000,-1.5,0.5,0.1,30,1.1,1.2,nan,nan,nan,nan,nan\n");
   test::writeTextFile(root / "rig.yaml",
-            "T_B_C: [0, 0, 1, 0.2, -1, 0, 0, 0, 0, -1, 0, 1.0, 0, 0, 0, 1]\n"
-            "T_B_L: [1, 0, 0, 0.3, 0, 1, 0, 0, 0, 0, 1, 0.6, 0, 0, 0, 1]\n"
-            "camera: {rate_hz: 20.0, pixel_sigma: 0.7, height_m: 1.2}\n"
-            "gyro: {rate_hz: 200.0, noise_density: 2.0e-4, bias_random_walk: 3.0e-5}\n"
-            "lidar: {rate_hz: 10.0, range_sigma_m: 0.03}\n");
+                      "T_B_C: [0, 0, 1, 0.2, -1, 0, 0, 0, 0, -1, 0, 1.0, 0, 0, 0, 1]\n"
+                      "T_B_L: [1, 0, 0, 0.3, 0, 1, 0, 0, 0, 0, 1, 0.6, 0, 0, 0, 1]\n"
+                      "camera: {rate_hz: 20.0, pixel_sigma: 0.7, height_m: 1.2}\n"
+                      "gyro: {rate_hz: 200.0, noise_density: 2.0e-4, bias_random_walk: 3.0e-5}\n"
+                      "lidar: {rate_hz: 10.0, range_sigma_m: 0.03}\n");
   test::writeTextFile(root / "groundtruth.txt",
-            "# t[s] tx ty tz qx qy qz qw\n1.0 0 0 0 0 0 0 1\n1.05 0.1 0 0 0 0 0 1\n");
+                      "# t[s] tx ty tz qx qy qz qw\n1.0 0 0 0 0 0 0 1\n1.05 0.1 0 0 0 0 0 1\n");
   test::writeTextFile(root / "sim" / "truth_bias.csv",
-            "#timestamp [ns],b_x,b_y,b_z [rad s^-1]\n1000000000,0.001,-0.002,0.003\n");
+                      "#timestamp [ns],b_x,b_y,b_z [rad s^-1]\n1000000000,0.001,-0.002,0.003\n");
   return root;
 }
 
