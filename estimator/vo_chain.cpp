@@ -65,14 +65,11 @@ ChainStep VoChain::step(Timestamp t_ns, const cv::Mat& grey,
     std::sort(pairs.begin(), pairs.end(), [](const Pair& a, const Pair& b) {
       return a.age != b.age ? a.age > b.age : a.id < b.id;
     });
-    std::unordered_map<std::int64_t, int> per_cell;
+    std::vector<Vec2> px;
+    for (const auto& p : pairs) px.push_back(p.px);
     std::vector<Pair> kept;
-    for (const auto& p : pairs) {
-      const std::int64_t cell =
-          (static_cast<std::int64_t>(p.px.y()) / options_.bucket_px) * 100000 +
-          static_cast<std::int64_t>(p.px.x()) / options_.bucket_px;
-      if (per_cell[cell]++ < options_.bucket_max) kept.push_back(p);
-    }
+    for (std::size_t i : thinToGrid(px, options_.bucket_px, options_.bucket_max))
+      kept.push_back(pairs[i]);
     pairs = std::move(kept);
   }
   std::vector<Vec3> b_ref, b_cur;
@@ -154,6 +151,17 @@ std::vector<TrackPx> VoChain::currentTracks() const {
   for (const auto& obs : frontend_.tracks().currentObservations())
     if (obs.age >= 2) out.push_back({obs.track_id, obs.px, obs.age});
   return out;
+}
+
+std::vector<std::size_t> thinToGrid(const std::vector<Vec2>& px, int cell_px, int per_cell) {
+  std::unordered_map<std::int64_t, int> count;
+  std::vector<std::size_t> kept;
+  for (std::size_t i = 0; i < px.size(); ++i) {
+    const std::int64_t cell = (static_cast<std::int64_t>(px[i].y()) / cell_px) * 100000 +
+                              static_cast<std::int64_t>(px[i].x()) / cell_px;
+    if (count[cell]++ < per_cell) kept.push_back(i);
+  }
+  return kept;
 }
 
 std::optional<Vec3> translationGivenRotation(const Mat3& R_cur_prev,

@@ -86,6 +86,10 @@ class VoChain {
   Timestamp history_span_ns_ = 0;
 };
 
+/// Indices of the pixels kept when at most per_cell are taken per cell_px square of the image, in
+/// the given order (the caller puts the preferred ones first).
+std::vector<std::size_t> thinToGrid(const std::vector<Vec2>& px, int cell_px, int per_cell);
+
 /// Translation direction for a known rotation: t minimises sum (b_c . (t x R b_p))^2 over the
 /// inlier pairs (t is the null vector of the rows (R b_p x b_c)^T), signed so that the points lie
 /// in front (positive depth along both bearings). nullopt when degenerate.
