@@ -126,6 +126,14 @@ WindowCore::WindowCore(const SensorSetup& setup, const WindowOptions& options,
                                : "no LiDAR and no camera height: scale is arbitrary");
   }
   if (!use_gyro_) relpose_ = std::make_unique<frontend::RelativePoseEstimator>(relpose_options);
+  if (setup.camera_height_m && *setup.camera_height_m > 0.0)
+    if (setup.camera_height_m && *setup.camera_height_m > 0.0) {
+      GroundChainOptions chain;
+      chain.min_parallax_deg = options.landmark_min_parallax_deg;
+      chain.min_point_parallax_deg = options.landmark_min_parallax_deg;
+      ground_chain_.emplace(setup.T_B_C, *setup.camera_height_m,
+                            std::max(3.0 * model_.bearing_sigma_rad, 1e-3), ground_options, chain);
+    }
 }
 
 WindowCore::~WindowCore() = default;
@@ -201,38 +209,18 @@ void WindowCore::Reference::sharedBearings(const VisualFrame& frame, std::vector
   }
 }
 
-SE3 WindowCore::poseFromReference(const VisualFrame& frame, const SE3& T_W_B_pred) const {
+Mat3 WindowCore::rotationFromReference(const VisualFrame& frame, const SE3& T_W_B_pred) const {
+  if (use_gyro_) return T_W_B_pred.linear();
   const Reference& ref = *reference_;
   std::vector<Vec3> b0, b1;
   ref.sharedBearings(frame, &b0, &b1);
-  if (static_cast<int>(b0.size()) < kMinReferenceTracks) return T_W_B_pred;
+  if (static_cast<int>(b0.size()) < kMinReferenceTracks) return T_W_B_pred.linear();
+  const auto rp = relpose_->estimate(b0, b1);
+  using S = frontend::RelativePoseResult::Status;
+  if (rp.status != S::kOk && rp.status != S::kLowParallax) return T_W_B_pred.linear();
   const Mat3 R_B_C = setup_.T_B_C.linear();
-  Mat3 R_C1_C0 = R_B_C.transpose() * T_W_B_pred.linear().transpose() * ref.T_W_B.linear() * R_B_C;
-  if (!use_gyro_) {
-    const auto rp = relpose_->estimate(b0, b1);
-    using S = frontend::RelativePoseResult::Status;
-    if (rp.status != S::kOk && rp.status != S::kLowParallax) return T_W_B_pred;
-    R_C1_C0 = rp.R_cur_prev;
-  }
-  SE3 T_C1_C0 = SE3::Identity();
-  T_C1_C0.linear() = R_C1_C0;
-  bool scaled = false;
-  if (setup_.camera_height_m) {
-    TwoViewOptions tvo;
-    tvo.min_parallax_deg = options_.landmark_min_parallax_deg;
-    tvo.min_points = ground_options_.min_inliers;
-    tvo.inlier_rad = std::max(3.0 * model_.bearing_sigma_rad, 1e-3);
-    if (auto tv = twoViewKnownRotation(b0, b1, R_C1_C0, tvo))
-      if (auto plane = fitGroundPlane(tv->p_C0, bodyUpIn(setup_.T_B_C), ground_options_))
-        if (plane->height > 1e-9) {
-          T_C1_C0.translation() = (*setup_.camera_height_m / plane->height) * tv->t_C1_C0;
-          scaled = true;
-        }
-  }
-  SE3 T_W_B = ref.T_W_B * setup_.T_B_C * T_C1_C0.inverse() * setup_.T_B_C.inverse();
-  T_W_B.linear() = so3::orthonormalize(T_W_B.linear());
-  if (!scaled) T_W_B.translation() = T_W_B_pred.translation();
-  return allFinite(T_W_B) ? T_W_B : T_W_B_pred;
+  const Mat3 R_W_B = ref.T_W_B.linear() * R_B_C * rp.R_cur_prev.transpose() * R_B_C.transpose();
+  return R_W_B.allFinite() ? so3::orthonormalize(R_W_B) : T_W_B_pred.linear();
 }
 
 WindowCore::Reference WindowCore::makeReference(const VisualFrame& frame, const SE3& T_W_B) const {
@@ -371,12 +359,19 @@ FrameEstimate WindowCore::processFrame(const VisualFrame& frame_in) {
       // the last still frame so that no translation is lost when the robot starts.
       e.tracked = true;
       if (canReference(frame.t_ns)) startReference(frame, e.T_W_B);
+      if (ground_chain_) ground_chain_->restart(frame, e.T_W_B);
       scale_wait_since_.reset();  // waiting while still loses no motion: the wait restarts
     }
   } else if (!initialized_) {
     if (!reference_) startReference(frame, T_pred);
     velocity_W_ *= std::pow(options_.velocity_decay_per_s, dt);
-    const SE3 T_ref = poseFromReference(frame, T_pred);
+    SE3 T_ref = T_pred;
+    T_ref.linear() = rotationFromReference(frame, T_pred);
+    if (ground_chain_) {
+      bool measured = false;
+      T_ref = ground_chain_->step(frame, T_ref, &measured);
+      if (measured) velocity_W_ = ground_chain_->velocityW();
+    }
     e.T_W_B = T_ref;
     if (tryInitialize(frame, T_ref, &e)) {
       ref_kf = map_.keyframes.back()->id;
@@ -925,16 +920,18 @@ bool WindowCore::tryInitialize(const VisualFrame& frame, const SE3& T_W_B_pred,
       case Outcome::kAgreed:
         break;
       case Outcome::kGroundSettled:
-        note("LiDAR scale ambiguous at an initialisation: the group that the ground plane agrees "
-             "with");
+        note(
+            "LiDAR scale ambiguous at an initialisation: the group that the ground plane agrees "
+            "with");
         break;
       case Outcome::kPutOff:
         ++scale_deferrals_;
         note("LiDAR scale ambiguous at an initialisation (two groups of range ratios): put off");
         return false;
       case Outcome::kForced:
-        note("LiDAR scale stayed ambiguous at an initialisation: the group nearest the ground "
-             "plane, else the nearest surfaces");
+        note(
+            "LiDAR scale stayed ambiguous at an initialisation: the group nearest the ground "
+            "plane, else the nearest surfaces");
         break;
       case Outcome::kTooFew:
         note("LiDAR associated too few points at an initialisation: ground-plane scale there");
@@ -959,8 +956,9 @@ bool WindowCore::tryInitialize(const VisualFrame& frame, const SE3& T_W_B_pred,
       // a wrong scale for good (10x on a spin with 60 tracks a keyframe); a new reference here
       // loses the motion since the old one, and the scale comes with a later frame.
       if (!canReference(frame.t_ns)) return false;
-      note("no LiDAR or ground-plane scale at an initialisation as the shared tracks ran out: "
-           "the two-view reference restarted");
+      note(
+          "no LiDAR or ground-plane scale at an initialisation as the shared tracks ran out: "
+          "the two-view reference restarted");
       scale_deferrals_ = 0;
       startReference(frame, T_W_B_pred);
       return false;
@@ -1034,6 +1032,7 @@ bool WindowCore::tryInitialize(const VisualFrame& frame, const SE3& T_W_B_pred,
   associateLidar(*kf0, true);
   associateLidar(*kf1, true);
   initialized_ = true;
+  if (ground_chain_) ground_chain_->reset();
   solveWindow();
 
   // Frames between the reference and now: positions interpolated in time, against kf0.

@@ -15,6 +15,7 @@
 #include "estimator/ground_plane.hpp"
 #include "estimator/gyro_buffer.hpp"
 #include "estimator/lidar_scale.hpp"
+#include "estimator/window_ground_chain.hpp"
 #include "estimator/window_init.hpp"
 #include "estimator/window_lidar.hpp"
 #include "estimator/window_map.hpp"
@@ -89,12 +90,11 @@ class WindowCore {
   bool canReference(Timestamp t_ns) const { return !use_lidar_ || scanAt(t_ns) != nullptr; }
   bool tryInitialize(const VisualFrame& frame, const SE3& T_W_B_pred, FrameEstimate* out);
   void startReference(const VisualFrame& frame, const SE3& T_W_B);
-  // Before initialisation: the frame's pose from its sightings of the two-view reference's tracks,
-  // instead of the reference's held pose. The rotation is the gyro's (in T_W_B_pred), else the
-  // two-view one; the translation is measured where the ground plane gives the two-view points a
-  // scale, else predicted. A reference that restarts (its tracks ran out, or no scale came)
-  // starts from there, so the motion since the old reference is kept.
-  SE3 poseFromReference(const VisualFrame& frame, const SE3& T_W_B_pred) const;
+  // Before initialisation: the frame's rotation, the gyro's (in T_W_B_pred), else the two-view
+  // one from its sightings of the reference's tracks (its position comes from the ground chain).
+  // A reference that restarts (its tracks ran out, or no scale came) starts from there, so the
+  // motion since the old one is kept.
+  Mat3 rotationFromReference(const VisualFrame& frame, const SE3& T_W_B_pred) const;
   /// A new keyframe observing `keep` and a spread selection of `candidates` (tracks next to
   /// LiDAR beams first); keep == nullptr and no scan: all candidates.
   Keyframe* addKeyframe(Timestamp t_ns, const SE3& T_W_B, const Vec3& bias,
@@ -123,6 +123,8 @@ class WindowCore {
   WindowModel model_;
   GroundPlaneOptions ground_options_;
   std::unique_ptr<frontend::RelativePoseEstimator> relpose_;
+  // Before initialisation, with a camera height: the positions, chained over short baselines.
+  std::optional<GroundChain> ground_chain_;
   bool use_gyro_ = true;
   bool use_lidar_ = true;
 
@@ -145,7 +147,8 @@ class WindowCore {
   // Since when no initialisation found a scale (with a scale sensor; a standstill restarts it):
   // references restart for up to kMaxScaleWaitS of motion before a unit baseline is accepted.
   static constexpr double kMaxScaleWaitS = 2.0;
-  static constexpr int kMinReferenceTracks = 20;  // shared tracks to measure a pose before initialisation
+  static constexpr int kMinReferenceTracks =
+      20;  // shared tracks to measure a pose before initialisation
   std::optional<Timestamp> scale_wait_since_;
 
   // Last frame.
