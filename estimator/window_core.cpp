@@ -211,16 +211,30 @@ void WindowCore::Reference::sharedBearings(const VisualFrame& frame, std::vector
 
 Mat3 WindowCore::rotationFromReference(const VisualFrame& frame, const SE3& T_W_B_pred) const {
   if (use_gyro_) return T_W_B_pred.linear();
-  const Reference& ref = *reference_;
+  // The frame's rotation from a view it shares tracks with (the 8-point), nullopt when that fails.
+  auto fromView = [&](const SE3& T_W_B0, const std::vector<Vec3>& b0,
+                      const std::vector<Vec3>& b1) -> std::optional<Mat3> {
+    if (static_cast<int>(b0.size()) < kMinReferenceTracks) return std::nullopt;
+    const auto rp = relpose_->estimate(b0, b1);
+    using S = frontend::RelativePoseResult::Status;
+    if (rp.status != S::kOk && rp.status != S::kLowParallax) return std::nullopt;
+    const Mat3 R_B_C = setup_.T_B_C.linear();
+    const Mat3 R_W_B = T_W_B0.linear() * R_B_C * rp.R_cur_prev.transpose() * R_B_C.transpose();
+    if (!R_W_B.allFinite()) return std::nullopt;
+    return so3::orthonormalize(R_W_B);
+  };
   std::vector<Vec3> b0, b1;
-  ref.sharedBearings(frame, &b0, &b1);
-  if (static_cast<int>(b0.size()) < kMinReferenceTracks) return T_W_B_pred.linear();
-  const auto rp = relpose_->estimate(b0, b1);
-  using S = frontend::RelativePoseResult::Status;
-  if (rp.status != S::kOk && rp.status != S::kLowParallax) return T_W_B_pred.linear();
-  const Mat3 R_B_C = setup_.T_B_C.linear();
-  const Mat3 R_W_B = ref.T_W_B.linear() * R_B_C * rp.R_cur_prev.transpose() * R_B_C.transpose();
-  return R_W_B.allFinite() ? so3::orthonormalize(R_W_B) : T_W_B_pred.linear();
+  reference_->sharedBearings(frame, &b0, &b1);
+  if (auto R = fromView(reference_->T_W_B, b0, b1)) return *R;
+  // The reference's tracks ran out (it restarts at this frame): the ground chain's recent anchor
+  // still shares many, else the turn of this frame would be lost for good.
+  if (ground_chain_) {
+    b0.clear();
+    b1.clear();
+    if (auto T_W_A = ground_chain_->sharedWithAnchor(frame, &b0, &b1))
+      if (auto R = fromView(*T_W_A, b0, b1)) return *R;
+  }
+  return T_W_B_pred.linear();
 }
 
 WindowCore::Reference WindowCore::makeReference(const VisualFrame& frame, const SE3& T_W_B) const {

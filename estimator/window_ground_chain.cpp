@@ -34,6 +34,18 @@ void GroundChain::restart(const VisualFrame& frame, const SE3& T_W_B) {
   anchor_ = std::move(a);
 }
 
+std::optional<SE3> GroundChain::sharedWithAnchor(const VisualFrame& frame, std::vector<Vec3>* b0,
+                                                 std::vector<Vec3>* b1) const {
+  if (!anchor_) return std::nullopt;
+  for (const auto& o : frame.observations) {
+    auto it = anchor_->bearing_C.find(o.track_id);
+    if (it == anchor_->bearing_C.end()) continue;
+    b0->push_back(it->second);
+    b1->push_back(o.bearing_C);
+  }
+  return anchor_->T_W_B;
+}
+
 SE3 GroundChain::step(const VisualFrame& frame, const SE3& T_W_B_in, bool* measured) {
   if (measured) *measured = false;
   if (!anchor_) {
@@ -43,12 +55,7 @@ SE3 GroundChain::step(const VisualFrame& frame, const SE3& T_W_B_in, bool* measu
   Anchor& a = *anchor_;
   ++a.frames;
   std::vector<Vec3> b0, b1;
-  for (const auto& o : frame.observations) {
-    auto it = a.bearing_C.find(o.track_id);
-    if (it == a.bearing_C.end()) continue;
-    b0.push_back(it->second);
-    b1.push_back(o.bearing_C);
-  }
+  sharedWithAnchor(frame, &b0, &b1);
   const double dt = toSeconds(frame.t_ns - a.t_ns);
   if (static_cast<int>(b0.size()) < two_view_.min_points || !(dt > 0.0)) {
     restart(frame, T_W_B_in);  // the anchor's tracks ran out: a new one where the frame is put

@@ -40,6 +40,10 @@ class GroundChain {
   /// Starts again at this frame and pose (a standstill, a position measured otherwise).
   void restart(const VisualFrame& frame, const SE3& T_W_B);
   void reset() { anchor_.reset(); }
+  /// The anchor's pose and the bearings the frame shares with it (b0 there, b1 in the frame);
+  /// nullopt before the first frame.
+  std::optional<SE3> sharedWithAnchor(const VisualFrame& frame, std::vector<Vec3>* b0,
+                                      std::vector<Vec3>* b1) const;
   /// The last measured step's displacement over its time, world frame [m/s].
   const Vec3& velocityW() const { return velocity_W_; }
   /// Frames whose step the ground plane scaled.
