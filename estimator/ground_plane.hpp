@@ -14,12 +14,13 @@
 namespace ovo::estimator {
 
 struct GroundPlaneOptions {
-  double max_normal_deviation_deg = 20.0;  // plane normal vs the prior "up" direction
+  double max_normal_deviation_deg = 20.0;       // plane normal vs the prior "up" direction
   double max_point_angle_from_down_deg = 88.0;  // candidates: at least 2 deg below the horizon
-  double inlier_rel_threshold = 0.04;      // |n.X + d| / d, relative (scale unknown)
+  double inlier_rel_threshold = 0.04;           // |n.X + d| / d, relative (scale unknown)
   int ransac_iterations = 200;
   int min_inliers = 12;
   std::uint64_t seed = 7;
+  bool operator==(const GroundPlaneOptions&) const = default;
 };
 GroundPlaneOptions readGroundPlaneOptions(const Config& cfg);  // keys under "vo.ground."
 

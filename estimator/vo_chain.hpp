@@ -48,6 +48,7 @@ struct VoChainOptions {
   int min_pairs = 12;            // tracked pairs needed to measure from the reference
   int bucket_px = 40;            // pairs are thinned to at most bucket_max per cell of this size
   int bucket_max = 3;            // (oldest tracks first) before RANSAC; 0 = all pairs
+  bool operator==(const VoChainOptions&) const = default;
 };
 VoChainOptions readVoChainOptions(const Config& cfg);  // keys under "vo."
 

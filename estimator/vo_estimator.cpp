@@ -8,15 +8,6 @@
 #include "estimator/vo_chain.hpp"
 
 namespace ovo::estimator {
-namespace {
-
-using Status = frontend::RelativePoseResult::Status;
-
-struct VoOptions {
-  double camera_height_m = 0.0;  // above the ground; 0 = take the rig's (camera.height_m)
-  double max_speed_mps = 40.0;   // a ground-plane scale implying more is rejected (previous used)
-  GroundPlaneOptions ground;
-};
 
 VoOptions readVoOptions(const Config& cfg) {
   VoOptions o;
@@ -25,6 +16,10 @@ VoOptions readVoOptions(const Config& cfg) {
   o.ground = readGroundPlaneOptions(cfg);
   return o;
 }
+
+namespace {
+
+using Status = frontend::RelativePoseResult::Status;
 
 class VoEstimator final : public Estimator {
  public:

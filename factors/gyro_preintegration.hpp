@@ -23,6 +23,7 @@ struct GyroPreintegrationOptions {
   double noise_density = 1.7e-4;  // gyro white noise, rad/s/sqrt(Hz) (EuRoC ADIS16448: 1.6968e-4)
   double max_gap_s = 0.05;        // a step between samples longer than this is a gap (s)
   double gap_rate_sigma_radps = 0.5;  // rate uncertainty assumed across a gap (rad/s)
+  bool operator==(const GyroPreintegrationOptions&) const = default;
 };
 /// Reads <prefix>.noise_density, <prefix>.max_gap_s, <prefix>.gap_rate_sigma_radps.
 GyroPreintegrationOptions readGyroPreintegrationOptions(const Config& config,

@@ -33,6 +33,7 @@ struct DetectorOptions {
   int bin_size_px = 50;          // matching grid cell (full-resolution pixels)
   int bin_max_features = 0;      // strongest |response| features kept per class and bin (0 = all)
   bool half_resolution = false;  // detect and match on the 2x2-averaged image
+  bool operator==(const DetectorOptions&) const = default;
 };
 
 /// The filter outputs of one image (row-major, width x height of the detection grid).

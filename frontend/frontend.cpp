@@ -60,6 +60,10 @@ FrontendOptions readFrontendOptions(const Config& cfg) {
       cfg.getIntInRange("frontend.track_refine_half_window_px", t.half_window_px, 1, 7);
   t.sigma_px = cfg.getInRange("frontend.track_refine_sigma_px", t.sigma_px, 0.3, 20.0);
   t.max_shift_px = cfg.getInRange("frontend.track_refine_max_shift_px", t.max_shift_px, 0.0, 10.0);
+  t.max_iterations =
+      cfg.getIntInRange("frontend.track_refine_max_iterations", t.max_iterations, 1, 100);
+  t.min_gradient =
+      cfg.getInRange("frontend.track_refine_min_gradient", t.min_gradient, 0.0, 1000.0);
   return o;
 }
 
@@ -174,8 +178,8 @@ FrontendResult Frontend::process(Timestamp t_ns, const cv::Mat& grey,
                       [&](const tbb::blocked_range<std::size_t>& range) {
                         for (std::size_t k = range.begin(); k != range.end(); ++k) {
                           const Match& m = matches[k];
-                          refined_px[k] = step_refiner_.refine(prev_grey_, prev_px_[m.prev], grey,
-                                                               px[m.cur]);
+                          refined_px[k] =
+                              step_refiner_.refine(prev_grey_, prev_px_[m.prev], grey, px[m.cur]);
                         }
                       });
     for (std::size_t k = 0; k < matches.size(); ++k)

@@ -42,6 +42,7 @@ struct FrontendOptions {
   // the ground tracks' drift after ten frames. Off by default: the window's final yaw and ATE are
   // no better with it over twelve simulated runs, and its scale error moves by about -0.2 %.
   TrackRefineOptions track_refine;
+  bool operator==(const FrontendOptions&) const = default;
 };
 /// Reads the keys under "frontend." (names in the field comments above) and "ransac.".
 FrontendOptions readFrontendOptions(const Config& cfg);

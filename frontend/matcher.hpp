@@ -40,6 +40,7 @@ struct MatcherOptions {
   bool delaunay_filter = true;
   double delaunay_flow_tol_px = 5.0;  // neighbours whose flows differ by less support each other
   int delaunay_min_support = 4;       // supports needed to keep a match
+  bool operator==(const MatcherOptions&) const = default;
 };
 
 /// One match; pixels at full resolution (refined per MatcherOptions::subpixel).

@@ -27,6 +27,7 @@ struct RelativePoseOptions {
   std::uint64_t seed = 42;
   int min_inliers = 20;           // fewer: kNoConsensus
   double min_parallax_deg = 0.3;  // below: kLowParallax (rotation still returned, t = 0)
+  bool operator==(const RelativePoseOptions&) const = default;
 };
 /// Reads the keys under "ransac." (backend, max_iterations, adaptive, confidence,
 /// inlier_threshold_rad, seed, min_inliers, min_parallax_deg).

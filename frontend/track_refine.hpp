@@ -23,9 +23,11 @@ struct TrackRefineOptions {
   bool enabled = false;       // frontend.track_refine
   int half_window_px = 3;     // frontend.track_refine_half_window_px: patch (2r+1)^2 pixels
   double sigma_px = 1.5;      // frontend.track_refine_sigma_px: Gaussian weight of the patch
-  int max_iterations = 5;     // Gauss-Newton steps at most
+  int max_iterations = 5;     // frontend.track_refine_max_iterations: Gauss-Newton steps at most
   double max_shift_px = 1.0;  // frontend.track_refine_max_shift_px: further from the start = fail
-  double min_gradient = 2.0;  // weighted RMS gradient (grey levels / px) along the weakest axis
+  double min_gradient = 2.0;  // frontend.track_refine_min_gradient: weighted RMS gradient
+                              // (grey levels / px) along the weakest axis
+  bool operator==(const TrackRefineOptions&) const = default;
 };
 
 /// Translation-only Lucas-Kanade of one track step. The Gaussian weights of the patch are

@@ -80,6 +80,7 @@ struct TrackerOptions {
   // vo.max_reference_frames = 6 frames) and the kf copies kf.lidar_baseline_s = 0.6 s of sightings
   // (12 frames at 20 Hz): 32 covers both with room to spare.
   int max_history = 32;
+  bool operator==(const TrackerOptions&) const = default;
 };
 
 /// Owns the tracks. Call update() once per frame with the current features and, for each, the
