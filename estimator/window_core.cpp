@@ -347,7 +347,29 @@ FrameEstimate WindowCore::processFrame(const VisualFrame& frame_in) {
   const double flow = frame.median_flow_px >= 0.0 ? frame.median_flow_px
                       : flows.size() >= 10        ? median(flows)
                                                   : 1e9;
-  const bool gyro_quiet = !use_gyro_ || rate_radps < options_.standstill_gyro_radps;
+  // Quiet gyro: the frame's samples scatter no more than sensor noise (no vibration, no turning)
+  // and, once the bias is known, their bias-corrected rate is small (no slow steady turn). Before
+  // that the mean rate is mostly bias (EuRoC's gyro: 0.08 rad/s): a robot that stands still at the
+  // start would never count as still, and its bias would never be measured.
+  bool gyro_quiet = !use_gyro_;
+  if (use_gyro_) {
+    const auto samples = gyro_.around(last_t_, frame.t_ns);
+    Vec3 sum = Vec3::Zero();
+    double sq = 0.0;
+    int n = 0;
+    for (const ImuSample& g : samples)
+      if (g.t_ns > last_t_ && g.t_ns <= frame.t_ns) {
+        sum += g.gyro_radps;
+        sq += g.gyro_radps.squaredNorm();
+        ++n;
+      }
+    if (n >= 3) {
+      const Vec3 mean = sum / n;
+      const double spread = std::sqrt(std::max(0.0, sq / n - mean.squaredNorm()) / 3.0);
+      gyro_quiet = spread <= options_.standstill_gyro_std_radps &&
+                   (!initialized_ || rate_radps < options_.standstill_gyro_radps);
+    }
+  }
   const bool standstill =
       !frame.observations.empty() && flow < options_.standstill_flow_px && gyro_quiet;
 

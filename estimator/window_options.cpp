@@ -16,8 +16,7 @@ WindowOptions readWindowOptions(const Config& c) {
   o.kf_max_interval_s = c.getInRange(p + "kf_max_interval_s", o.kf_max_interval_s, 0.01, 1e3);
   o.min_landmark_observations =
       c.getIntInRange(p + "min_landmark_observations", o.min_landmark_observations, 3, 10000);
-  o.min_inlier_fraction =
-      c.getInRange(p + "min_inlier_fraction", o.min_inlier_fraction, 0.0, 1.0);
+  o.min_inlier_fraction = c.getInRange(p + "min_inlier_fraction", o.min_inlier_fraction, 0.0, 1.0);
 
   o.max_features = c.getIntInRange(p + "max_features", o.max_features, 10, 100000);
   o.max_lidar_features = c.getIntInRange(p + "max_lidar_features", o.max_lidar_features, 0, 100000);
@@ -82,6 +81,8 @@ WindowOptions readWindowOptions(const Config& c) {
   o.standstill_flow_px = c.getInRange(p + "standstill_flow_px", o.standstill_flow_px, 0.0, 100.0);
   o.standstill_gyro_radps =
       c.getInRange(p + "standstill_gyro_radps", o.standstill_gyro_radps, 0.0, 10.0);
+  o.standstill_gyro_std_radps =
+      c.getInRange(p + "standstill_gyro_std_radps", o.standstill_gyro_std_radps, 0.0, 10.0);
   o.standstill_min_bias_s =
       c.getInRange(p + "standstill_min_bias_s", o.standstill_min_bias_s, 0.0, 100.0);
   o.track_creep_px = c.getInRange(p + "track_creep_px", o.track_creep_px, 0.0, 100.0);
@@ -109,8 +110,8 @@ WindowOptions readWindowOptions(const Config& c) {
   o.use_ground_height = c.get<bool>(p + "use_ground_height", o.use_ground_height);
   o.ground_height_sigma_m =
       c.getInRange(p + "ground_height_sigma_m", o.ground_height_sigma_m, 1e-4, 10.0);
-  o.ground_max_distance_heights = c.getInRange(p + "ground_max_distance_heights",
-                                               o.ground_max_distance_heights, 0.1, 1000.0);
+  o.ground_max_distance_heights =
+      c.getInRange(p + "ground_max_distance_heights", o.ground_max_distance_heights, 0.1, 1000.0);
   o.ground_min_depression_deg =
       c.getInRange(p + "ground_min_depression_deg", o.ground_min_depression_deg, 0.0, 89.0);
   o.ground_scale_gate = c.getInRange(p + "ground_scale_gate", o.ground_scale_gate, 0.0, 1.0);
@@ -118,8 +119,8 @@ WindowOptions readWindowOptions(const Config& c) {
       c.getInRange(p + "ground_scale_gate_no_lidar", o.ground_scale_gate_no_lidar, 0.0, 1.0);
   o.ground_inlier_fraction =
       c.getInRange(p + "ground_inlier_fraction", o.ground_inlier_fraction, 1e-4, 1.0);
-  o.marginalize_reanchored = c.getChoice(p + "marginalize_reanchored", o.marginalize_reanchored,
-                                         {"link", "all", "none"});
+  o.marginalize_reanchored =
+      c.getChoice(p + "marginalize_reanchored", o.marginalize_reanchored, {"link", "all", "none"});
 
   o.gyro = factors::readGyroPreintegrationOptions(c, "gyro");
   return o;

@@ -100,13 +100,16 @@ struct WindowOptions {
   double init_max_wait_s = 2.0;    // after this long without init, half the parallax suffices, s
 
   // Standstill.
-  double standstill_flow_px = 0.3;      // median flow to the previous frame below this ...
-  double standstill_gyro_radps = 0.02;  // ... and |w - b_g| below this: standstill
-  double standstill_min_bias_s = 0.25;  // standstill this long: its mean gyro rate is the bias
+  double standstill_flow_px = 0.3;           // median flow to the previous frame below this ...
+  double standstill_gyro_std_radps = 0.005;  // ... and the frame's gyro samples this quiet
+                                             // (2x a MEMS gyro's noise at 200 Hz; ride
+                                             // vibration gives 0.004-0.01), rad/s ...
+  double standstill_gyro_radps = 0.02;       // ... and, once initialised, |w - b_g| below this
+  double standstill_min_bias_s = 0.25;       // standstill this long: its mean gyro rate is the bias
                                         // (prior on the first keyframe before initialisation, a
                                         // zero-rate factor on the last keyframe after), s
-  double standstill_trim_s = 0.3;       // the last still frames before the motion was seen are
-                                        // left out of that mean (they hold its start), s
+  double standstill_trim_s = 0.3;  // the last still frames before the motion was seen are
+                                   // left out of that mean (they hold its start), s
 
   // Tracking loss.
   double velocity_decay_per_s = 0.5;  // constant-velocity decay while lost (fraction kept per s)
