@@ -126,14 +126,13 @@ WindowCore::WindowCore(const SensorSetup& setup, const WindowOptions& options,
                                : "no LiDAR and no camera height: scale is arbitrary");
   }
   if (!use_gyro_) relpose_ = std::make_unique<frontend::RelativePoseEstimator>(relpose_options);
-  if (setup.camera_height_m && *setup.camera_height_m > 0.0)
-    if (setup.camera_height_m && *setup.camera_height_m > 0.0) {
-      GroundChainOptions chain;
-      chain.min_parallax_deg = options.landmark_min_parallax_deg;
-      chain.min_point_parallax_deg = options.landmark_min_parallax_deg;
-      ground_chain_.emplace(setup.T_B_C, *setup.camera_height_m,
-                            std::max(3.0 * model_.bearing_sigma_rad, 1e-3), ground_options, chain);
-    }
+  if (setup.camera_height_m && *setup.camera_height_m > 0.0) {
+    GroundChainOptions chain;
+    chain.min_parallax_deg = options.landmark_min_parallax_deg;
+    chain.min_point_parallax_deg = options.landmark_min_parallax_deg;
+    ground_chain_.emplace(setup.T_B_C, *setup.camera_height_m,
+                          std::max(3.0 * model_.bearing_sigma_rad, 1e-3), ground_options, chain);
+  }
 }
 
 WindowCore::~WindowCore() = default;
@@ -351,8 +350,8 @@ FrameEstimate WindowCore::processFrame(const VisualFrame& frame_in) {
   // and, once the bias is known, their bias-corrected rate is small (no slow steady turn). Before
   // that the mean rate is mostly bias (EuRoC's gyro: 0.08 rad/s): a robot that stands still at the
   // start would never count as still, and its bias would never be measured.
-  bool gyro_quiet = !use_gyro_;
-  if (use_gyro_) {
+  bool gyro_quiet = !use_gyro_ || rate_radps < options_.standstill_gyro_radps;
+  if (use_gyro_) {  // (too few samples, a gap: the rate test alone)
     const auto samples = gyro_.around(last_t_, frame.t_ns);
     Vec3 sum = Vec3::Zero();
     double sq = 0.0;

@@ -80,7 +80,6 @@ SE3 GroundChain::step(const VisualFrame& frame, const SE3& T_W_B_in, bool* measu
       if (std::isfinite(s) && s <= options_.max_speed_mps * dt) scale = s;
     }
   if (scale) {
-    ++ground_steps_;
     speed_mps_ = *scale / dt;
   } else if (speed_mps_) {
     scale = *speed_mps_ * dt;  // no plane this step: the last speed along the measured direction

@@ -1,8 +1,10 @@
-// The window's translation before it initialises, without a LiDAR range: each frame measured
-// from a recent anchor frame over a short baseline and scaled by the ground plane (the `vo`
-// estimator's monocular scale), chained. The two-view reference the window starts from needs a
-// long baseline, and on fast forward motion (KITTI) its tracks run out first: without the chain
-// the frames before the start and each restarted reference lose the distance driven.
+// The window's positions before it initialises, with a camera height: each frame measured from a
+// recent anchor frame over a short baseline and scaled by the ground plane (the `vo` estimator's
+// monocular scale), chained. The two-view reference the window starts from needs a long
+// baseline, and on fast forward motion (KITTI) its tracks run out first: without the chain the
+// frames before the start and each restarted reference lose the distance driven. (The frames from
+// the reference the window starts at are posed again by the initialisation; with a LiDAR that is
+// all of them unless the reference restarted.)
 #pragma once
 
 #include <optional>
@@ -17,8 +19,9 @@
 namespace ovo::estimator {
 
 struct GroundChainOptions {
-  double min_parallax_deg = 0.5;  // median rotation-compensated parallax to measure a step, deg
-  double min_point_parallax_deg = 0.3;  // a point's triangulation angle to count for the plane
+  // The window passes its landmark_min_parallax_deg for both angles.
+  double min_parallax_deg = 1.0;  // median rotation-compensated parallax to measure a step, deg
+  double min_point_parallax_deg = 1.0;  // a point's triangulation angle to count for the plane
   int max_frames = 6;                   // ... else measured anyway after this many frames
   int cell_px = 40;                     // anchor tracks thinned to per_cell per cell_px square
   int per_cell = 3;
@@ -46,8 +49,6 @@ class GroundChain {
                                       std::vector<Vec3>* b1) const;
   /// The last measured step's displacement over its time, world frame [m/s].
   const Vec3& velocityW() const { return velocity_W_; }
-  /// Frames whose step the ground plane scaled.
-  int groundScaledSteps() const { return ground_steps_; }
 
  private:
   struct Anchor {
@@ -64,7 +65,6 @@ class GroundChain {
   std::optional<Anchor> anchor_;
   std::optional<double> speed_mps_;
   Vec3 velocity_W_ = Vec3::Zero();
-  int ground_steps_ = 0;
 };
 
 }  // namespace ovo::estimator
