@@ -122,6 +122,7 @@ class WindowCore {
   WindowOptions options_;
   WindowModel model_;
   GroundPlaneOptions ground_options_;
+  GroundPlaneOptions label_ground_options_;  // the keyframes' planes for camera-height factors
   std::unique_ptr<frontend::RelativePoseEstimator> relpose_;
   // Before initialisation, with a camera height: the positions, chained over short baselines.
   std::optional<GroundChain> ground_chain_;

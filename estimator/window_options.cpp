@@ -117,6 +117,8 @@ WindowOptions readWindowOptions(const Config& c) {
   o.ground_scale_gate = c.getInRange(p + "ground_scale_gate", o.ground_scale_gate, 0.0, 1.0);
   o.ground_scale_gate_no_lidar =
       c.getInRange(p + "ground_scale_gate_no_lidar", o.ground_scale_gate_no_lidar, 0.0, 1.0);
+  o.ground_normal_max_deg_no_lidar = c.getInRange(p + "ground_normal_max_deg_no_lidar",
+                                                  o.ground_normal_max_deg_no_lidar, 0.0, 90.0);
   o.ground_inlier_fraction =
       c.getInRange(p + "ground_inlier_fraction", o.ground_inlier_fraction, 1e-4, 1.0);
   o.marginalize_reanchored =
