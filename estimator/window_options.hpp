@@ -66,8 +66,9 @@ struct WindowOptions {
                                                 // scale after the start: a start from a poor plane
                                                 // is then corrected, not kept
   double ground_normal_max_deg_no_lidar = 5.0;  // ... and without a LiDAR its normal within
-                                                // this of the body's up (else vo.ground's 20 deg):
-                                                // fewer labels, but no tilted plane's bias in
+                                                // this of the body's up, as the ground chain's
+                                                // before the start (else vo.ground's 20 deg):
+                                                // fewer planes, but no tilted plane's bias in
                                                 // the only scale there is, deg
   double ground_inlier_fraction = 0.04;  // a point is on the plane within this fraction of the
                                          // camera height; after a solve it keeps its factor
