@@ -4,6 +4,7 @@
 #pragma once
 
 #include <algorithm>
+#include <cmath>
 #include <deque>
 #include <mutex>
 #include <span>
@@ -12,6 +13,23 @@
 #include "common/types.hpp"
 
 namespace ovo::estimator {
+
+/// Mean and scatter of a frame's gyro samples (the kf's and the window's standstill tests).
+struct GyroScatter {
+  Vec3 sum = Vec3::Zero();
+  double sq_sum = 0.0;  // sum of squared norms
+  int count = 0;
+  void add(const Vec3& w) {
+    sum += w;
+    sq_sum += w.squaredNorm();
+    ++count;
+  }
+  Vec3 mean() const { return sum / count; }
+  /// RMS deviation from the mean per axis (rad/s); count >= 1.
+  double spread() const {
+    return std::sqrt(std::max(0.0, sq_sum / count - mean().squaredNorm()) / 3.0);
+  }
+};
 
 class GyroBuffer {
  public:

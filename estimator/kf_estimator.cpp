@@ -229,8 +229,7 @@ class KfEstimator final : public Estimator {
         filter_.propagateTo(t_ns);
       }
       if (vo_ok && use_gyro_ && options_.zero_rate_update && standingStill(s)) {
-        filter_.zeroRateUpdate(frame_gyro_sum_ / frame_gyro_count_,
-                               toSeconds(t_ns - trajectory_.back().t_ns));
+        filter_.zeroRateUpdate(frame_gyro_.mean(), toSeconds(t_ns - trajectory_.back().t_ns));
         ++still_frames_;
       }
       // The fused rotation; without a gyro the filter cannot follow between VO updates, so the
@@ -312,11 +311,8 @@ class KfEstimator final : public Estimator {
   // bearings of the tracked pairs, no rotation compensation: a still camera sees the same rays)
   // and the gyro samples of the frame are quiet (only sensor noise; vibration or turning is not).
   bool standingStill(const ChainStep& s) const {
-    if (frame_gyro_count_ < 3 || s.bearings_prev.size() < 8) return false;
-    const Vec3 mean = frame_gyro_sum_ / frame_gyro_count_;
-    const double var =
-        std::max(0.0, frame_gyro_sq_sum_ / frame_gyro_count_ - mean.squaredNorm()) / 3.0;
-    if (std::sqrt(var) > options_.still_gyro_std_radps) return false;
+    if (frame_gyro_.count < 3 || s.bearings_prev.size() < 8) return false;
+    if (frame_gyro_.spread() > options_.still_gyro_std_radps) return false;
     return medianParallaxDeg(s.bearings_prev, s.bearings_cur, Mat3::Identity()) <
            options_.still_flow_deg;
   }
@@ -324,14 +320,10 @@ class KfEstimator final : public Estimator {
   // Propagates the filter with every gyro sample up to t (the rest wait for later frames), and
   // keeps the mean and spread of this frame's samples for the standstill test.
   void feedGyroUntil(Timestamp t_ns) {
-    frame_gyro_sum_.setZero();
-    frame_gyro_sq_sum_ = 0.0;
-    frame_gyro_count_ = 0;
+    frame_gyro_ = {};
     while (!pending_gyro_.empty() && pending_gyro_.front().t_ns <= t_ns) {
       const ImuSample& g = pending_gyro_.front();
-      frame_gyro_sum_ += g.gyro_radps;
-      frame_gyro_sq_sum_ += g.gyro_radps.squaredNorm();
-      ++frame_gyro_count_;
+      frame_gyro_.add(g.gyro_radps);
       if (last_gyro_t_ && toSeconds(g.t_ns - *last_gyro_t_) > options_.filter.max_gyro_gap_s)
         ++stats_.gyro_gaps;
       last_gyro_t_ = g.t_ns;
@@ -474,10 +466,8 @@ class KfEstimator final : public Estimator {
   bool use_gyro_ = false, use_lidar_ = false;
   std::deque<ImuSample> pending_gyro_;
   std::optional<Timestamp> last_gyro_t_;
-  Vec3 frame_gyro_sum_ = Vec3::Zero();  // gyro samples fed for the current frame: sum,
-  double frame_gyro_sq_sum_ = 0.0;      // sum of squared norms
-  int frame_gyro_count_ = 0;            // and count
-  int still_frames_ = 0;                // frames with a zero-rate update
+  GyroScatter frame_gyro_;  // the gyro samples fed for the current frame
+  int still_frames_ = 0;    // frames with a zero-rate update
   std::deque<LidarScan> scans_;
   double ground_speed_mps_ = 0.0;  // last ground-plane speed (uncorrected)
   double lidar_speed_mps_ = 0.0;   // last direct LiDAR speed (no camera height)

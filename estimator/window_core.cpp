@@ -362,22 +362,12 @@ FrameEstimate WindowCore::processFrame(const VisualFrame& frame_in) {
   // start would never count as still, and its bias would never be measured.
   bool gyro_quiet = !use_gyro_ || rate_radps < options_.standstill_gyro_radps;
   if (use_gyro_) {  // (too few samples, a gap: the rate test alone)
-    const auto samples = gyro_.around(last_t_, frame.t_ns);
-    Vec3 sum = Vec3::Zero();
-    double sq = 0.0;
-    int n = 0;
-    for (const ImuSample& g : samples)
-      if (g.t_ns > last_t_ && g.t_ns <= frame.t_ns) {
-        sum += g.gyro_radps;
-        sq += g.gyro_radps.squaredNorm();
-        ++n;
-      }
-    if (n >= 3) {
-      const Vec3 mean = sum / n;
-      const double spread = std::sqrt(std::max(0.0, sq / n - mean.squaredNorm()) / 3.0);
-      gyro_quiet = spread <= options_.standstill_gyro_std_radps &&
+    GyroScatter scatter;
+    for (const ImuSample& g : gyro_.around(last_t_, frame.t_ns))
+      if (g.t_ns > last_t_ && g.t_ns <= frame.t_ns) scatter.add(g.gyro_radps);
+    if (scatter.count >= 3)
+      gyro_quiet = scatter.spread() <= options_.standstill_gyro_std_radps &&
                    (!initialized_ || rate_radps < options_.standstill_gyro_radps);
-    }
   }
   const bool standstill =
       !frame.observations.empty() && flow < options_.standstill_flow_px && gyro_quiet;
