@@ -13,6 +13,17 @@ namespace {
 
 namespace fs = std::filesystem;
 
+// `ovo run --quiet [extra] --dataset ../shared/data/<dataset>` (the window, the default) into a
+// fresh folder; its metrics.json.
+nlohmann::json runWindow(const std::string& dataset, const std::string& extra = "") {
+  const fs::path out = tempDir() / ("window_" + dataset);
+  EXPECT_EQ(runOvo("run --quiet " + extra + " --dataset '" + sharedData(dataset).string() +
+                   "' --out '" + out.string() + "'"),
+            0);
+  std::ifstream in(out / "metrics.json");
+  return nlohmann::json::parse(in);
+}
+
 TEST(KittiWindow, FollowsTheFirstTurnAndHoldsTheGroundPlaneScale) {
   // The car pulls away turning left (about 95 deg in the first 5 s): the window initialises only
   // after 3.3 s, as the reference's tracks run out twice before. Measured: ATE 1.19 m (1.31 % of
@@ -22,12 +33,7 @@ TEST(KittiWindow, FollowsTheFirstTurnAndHoldsTheGroundPlaneScale) {
   // the rotation held where the old reference's tracks ran out, 1.75 deg; ground planes tilted up
   // to 20 deg in the chain and the camera-height factors, 1.44 m.
   OVO_REQUIRE_DATA("kitti07-first160/image_0/000000.png");
-  const fs::path out = tempDir() / "kitti_window";
-  ASSERT_EQ(runOvo("run --quiet --dataset '" + sharedData("kitti07-first160").string() +
-                   "' --out '" + out.string() + "'"),
-            0);
-  std::ifstream in(out / "metrics.json");
-  const auto m = nlohmann::json::parse(in);
+  const auto m = runWindow("kitti07-first160");
   EXPECT_EQ(m.at("frames").get<int>(), 160);
   EXPECT_LT(m.at("final_yaw_err_deg").get<double>(), 1.0);
   EXPECT_LT(m.at("ate_pct").get<double>(), 1.4);
@@ -40,12 +46,7 @@ TEST(KittiWindow, FullRefinementKeepsTheGroundPlaneScale) {
   // worse than the online window); within 5 deg: ATE 0.81 m (0.89 %), scale -2.7 %, final yaw
   // 0.12 deg (better than vo's 1.12 m).
   OVO_REQUIRE_DATA("kitti07-first160/image_0/000000.png");
-  const fs::path out = tempDir() / "kitti_window_refined";
-  ASSERT_EQ(runOvo("run --quiet --refine full --dataset '" +
-                   sharedData("kitti07-first160").string() + "' --out '" + out.string() + "'"),
-            0);
-  std::ifstream in(out / "metrics.json");
-  const auto m = nlohmann::json::parse(in);
+  const auto m = runWindow("kitti07-first160", "--refine full");
   EXPECT_LT(m.at("final_yaw_err_deg").get<double>(), 0.5);
   EXPECT_LT(m.at("ate_pct").get<double>(), 1.1);
   EXPECT_LT(std::abs(m.at("scale_err_pct").get<double>()), 5.0);
@@ -58,12 +59,7 @@ TEST(EurocWindow, ARealGyroWithALargeBiasHoldsTheYawWhileTheMavHardlyMoves) {
   // unit baseline on no parallax and its yaw ended 3.0 deg off, 0.22 deg a frame (kf 0.03 deg,
   // vo 0.01). Measured now: 0.05 deg, 0.004 deg a frame.
   OVO_REQUIRE_DATA("euroc-v101-micro/mav0/cam0/data.csv");
-  const fs::path out = tempDir() / "euroc_window";
-  ASSERT_EQ(runOvo("run --quiet --dataset '" + sharedData("euroc-v101-micro").string() +
-                   "' --out '" + out.string() + "'"),
-            0);
-  std::ifstream in(out / "metrics.json");
-  const auto m = nlohmann::json::parse(in);
+  const auto m = runWindow("euroc-v101-micro");
   EXPECT_EQ(m.at("frames").get<int>(), 95);
   EXPECT_LT(m.at("final_yaw_err_deg").get<double>(), 0.5);
   EXPECT_LT(m.at("rpe_rot_deg_per_frame_median").get<double>(), 0.05);

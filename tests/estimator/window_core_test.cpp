@@ -404,6 +404,22 @@ TEST(WindowCore, WithNoScaleAtAllItStartsAtAUnitBaselineWithinAFewSeconds) {
   EXPECT_LT(toSeconds(last_waiting->t_ns - seq.frames.front().t_ns), 3.5);
 }
 
+// The largest rotation error (deg) of the run's trajectory against the truth (W = B at frame 0).
+double worstRotationDeg(const SyntheticSequence& seq, const RunResult& r) {
+  double worst_deg = 0.0;
+  for (std::size_t i = 0; i < seq.frames.size(); ++i) {
+    const Mat3 dR = truthRel(seq, i).linear().transpose() * r.trajectory[i].T_W_B.linear();
+    worst_deg = std::max(worst_deg, so3::angle(dR) * 180.0 / M_PI);
+  }
+  return worst_deg;
+}
+
+// A rig without a LiDAR (no scans), like KITTI's.
+void withoutLidar(SyntheticSequence* seq) {
+  seq->setup.has_lidar = false;
+  seq->scans.clear();
+}
+
 TEST(WindowCore, WithoutGyroTheTurnBeforeInitialisationIsKept) {
   // No gyro, no scale for the first 2 s (the reference restarts for want of one) and a weaving
   // drive of +-20 deg. The rotation since each old reference is measured on its tracks, so no turn
@@ -417,11 +433,7 @@ TEST(WindowCore, WithoutGyroTheTurnBeforeInitialisationIsKept) {
   const auto r = run(seq, options);
   expectAllFinite(r);
   EXPECT_TRUE(noted(r, "the two-view reference restarted"));
-  double worst_deg = 0.0;
-  for (std::size_t i = 0; i < seq.frames.size(); ++i) {
-    const Mat3 dR = truthRel(seq, i).linear().transpose() * r.trajectory[i].T_W_B.linear();
-    worst_deg = std::max(worst_deg, so3::angle(dR) * 180.0 / M_PI);
-  }
+  const double worst_deg = worstRotationDeg(seq, r);
   EXPECT_LT(worst_deg, 1.0);
 }
 
@@ -432,8 +444,7 @@ TEST(WindowCore, WithoutLidarTheDistanceBeforeTheStartFollowsTheGround) {
   // drive (holding it, the old behaviour, leaves every frame at the start).
   SyntheticOptions o;
   auto seq = makeSyntheticSequence(o);
-  seq.setup.has_lidar = false;
-  seq.scans.clear();
+  withoutLidar(&seq);
   WindowOptions options;
   options.init_min_tracks = 1000000;
   const auto r = run(seq, options);
@@ -461,8 +472,7 @@ TEST(WindowCore, WithoutGyroTheRotationGoesOnWhenTheReferencesTracksRunOut) {
   o.yaw_amplitude_deg = 20.0;
   auto seq = makeSyntheticSequence(o);
   seq.setup.has_gyro = false;
-  seq.setup.has_lidar = false;
-  seq.scans.clear();
+  withoutLidar(&seq);
   constexpr TrackId kLife = 15;
   for (std::size_t i = 0; i < seq.frames.size(); ++i)
     for (auto& ob : seq.frames[i].visual.observations)
@@ -472,11 +482,7 @@ TEST(WindowCore, WithoutGyroTheRotationGoesOnWhenTheReferencesTracksRunOut) {
   const auto r = run(seq, options);
   expectAllFinite(r);
   ASSERT_EQ(r.estimates.back().status, "initializing");
-  double worst_deg = 0.0;
-  for (std::size_t i = 0; i < seq.frames.size(); ++i) {
-    const Mat3 dR = truthRel(seq, i).linear().transpose() * r.trajectory[i].T_W_B.linear();
-    worst_deg = std::max(worst_deg, so3::angle(dR) * 180.0 / M_PI);
-  }
+  const double worst_deg = worstRotationDeg(seq, r);
   std::printf("largest rotation error: %.2f deg\n", worst_deg);
   EXPECT_LT(worst_deg, 1.0);
 }
