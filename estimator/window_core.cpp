@@ -470,6 +470,10 @@ FrameEstimate WindowCore::processFrame(const VisualFrame& frame_in) {
         triangulateNewLandmarks(*kf);
         for (auto& k : map_.keyframes) associateLidar(*k, true);
         solveWindow();
+        if (rescaleToLidar()) {
+          for (auto& k : map_.keyframes) associateLidar(*k, true);
+          solveWindow();
+        }
         marginalize();
         e.T_W_B = map_.keyframes.back()->pose();
         e.is_keyframe = true;
@@ -635,15 +639,14 @@ void WindowCore::triangulateNewLandmarks(Keyframe& kf) {
   }
 }
 
-void WindowCore::associateLidar(Keyframe& kf, bool gate_depth) {
-  if (!use_lidar_) return;
+std::vector<WindowCore::LidarRange> WindowCore::lidarRangesAt(const Keyframe& kf) const {
+  std::vector<LidarRange> out;
+  if (!use_lidar_) return out;
   const SE3 T_L_W = (kf.pose() * setup_.T_B_L).inverse();
-  std::unordered_set<TrackId> have;
-  for (const auto& a : kf.lidar) have.insert(a.track_id);
   if (options_.lidar_interpolate) {
     // Every landmark the keyframe sees whose point lies within a small elevation of the scan
     // plane: the scan's range interpolated at its azimuth (no pixel-radius offset along the scan).
-    if (!kf.scan) return;
+    if (!kf.scan) return out;
     const double max_tan_elevation = std::tan(options_.lidar_max_elevation_deg * kDegToRad);
     // Ground beams (isGroundBeam) are told apart unless lidar_ground_beams is raw.
     const double ground_height = options_.lidar_ground_beams != "raw" && setup_.camera_height_m
@@ -655,7 +658,6 @@ void WindowCore::associateLidar(Keyframe& kf, bool gate_depth) {
     const Vec3 up_C = bodyUpIn(setup_.T_B_C);
     const Vec3 up_L = bodyUpIn(setup_.T_B_L);
     for (const auto& [id, o] : kf.observations) {
-      if (have.count(id) || kf.lidar_rejected.count(id)) continue;
       const auto p_W = map_.pointW(id, setup_.T_B_C);
       if (!p_W) continue;
       const Vec3 p_L = T_L_W * *p_W;
@@ -665,8 +667,7 @@ void WindowCore::associateLidar(Keyframe& kf, bool gate_depth) {
       const auto r =
           interpolateRange(*kf.scan, phi, options_.lidar_edge_step, options_.lidar_edge_neighbours);
       if (!r) continue;
-      LidarAssociation a{id, *r, true};
-      double gate_range = *r;  // what the landmark's distance must agree with
+      LidarRange range{{id, *r, true}, d_xy, *r, false};
       const Vec3 hit_L(*r * std::cos(phi), *r * std::sin(phi), 0.0);
       if (isGroundBeam(T_C_L * hit_L, up_C, ground_height)) {
         if (skip_ground) continue;
@@ -675,24 +676,84 @@ void WindowCore::associateLidar(Keyframe& kf, bool gate_depth) {
         const auto d =
             groundRangeAlongRay(hit_L, up_L, T_L_C.translation(), T_L_C.rotation() * o.bearing_C);
         if (!d) continue;
-        gate_range = *d;
-        a = {id, up_L.dot(hit_L), false, up_L};
+        range = {{id, up_L.dot(hit_L), false, up_L}, d_xy, *d, true};
       }
-      if (gate_depth && std::abs(d_xy - gate_range) > options_.lidar_depth_gate * gate_range)
-        continue;
-      kf.lidar.push_back(a);
+      out.push_back(range);
     }
-    return;
+    return out;
   }
-  if (kf.lidar_candidates.empty()) return;
   for (const LidarAssociation& c : kf.lidar_candidates) {
-    if (have.count(c.track_id) || kf.lidar_rejected.count(c.track_id)) continue;
     const auto p_W = map_.pointW(c.track_id, setup_.T_B_C);
     if (!p_W) continue;
-    const double d_lm = (T_L_W * *p_W).norm();
-    if (gate_depth && std::abs(d_lm - c.range_m) > options_.lidar_depth_gate * c.range_m) continue;
-    kf.lidar.push_back(c);
+    out.push_back({c, (T_L_W * *p_W).norm(), c.range_m, false});
   }
+  return out;
+}
+
+void WindowCore::associateLidar(Keyframe& kf, bool gate_depth) {
+  std::unordered_set<TrackId> have;
+  for (const auto& a : kf.lidar) have.insert(a.track_id);
+  for (const LidarRange& r : lidarRangesAt(kf)) {
+    const TrackId id = r.association.track_id;
+    if (have.count(id) || kf.lidar_rejected.count(id)) continue;
+    if (gate_depth &&
+        std::abs(r.landmark_m - r.measured_m) > options_.lidar_depth_gate * r.measured_m)
+      continue;
+    kf.lidar.push_back(r.association);
+  }
+}
+
+std::optional<double> WindowCore::lidarScaleRatio() const {
+  // Every range the window's keyframes measure to a landmark they see, gated or rejected or not:
+  // the gates are what a wrong scale defeats. Ground beams are left out (their range hangs on
+  // the plane's elevation, not on the scale alone).
+  std::vector<std::pair<double, TrackId>> ratios;
+  for (const auto& kf : map_.keyframes)
+    for (const LidarRange& r : lidarRangesAt(*kf))
+      if (!r.ground && r.measured_m > 0.0)
+        ratios.emplace_back(r.landmark_m / r.measured_m, r.association.track_id);
+  if (static_cast<int>(ratios.size()) < options_.lidar_rescale_min_ranges) return std::nullopt;
+  std::vector<double> values;
+  for (const auto& [ratio, id] : ratios) values.push_back(ratio);
+  const double mid = median(values);
+  // The ranges that agree with the median: at least half of them and min_ranges, from more than
+  // one landmark (one landmark seen from every keyframe is one measurement, not a consensus).
+  std::vector<double> agree;
+  std::unordered_set<TrackId> tracks;
+  for (const auto& [ratio, id] : ratios)
+    if (std::abs(ratio / mid - 1.0) <= options_.lidar_rescale_agreement) {
+      agree.push_back(ratio);
+      tracks.insert(id);
+    }
+  if (static_cast<int>(agree.size()) < options_.lidar_rescale_min_ranges ||
+      2 * agree.size() < ratios.size() || tracks.size() < 3)
+    return std::nullopt;
+  return median(agree);
+}
+
+bool WindowCore::rescaleToLidar() {
+  if (!use_lidar_ || options_.lidar_rescale_ratio <= 0.0 || map_.keyframes.size() < 2) return false;
+  const auto ratio = lidarScaleRatio();
+  if (!ratio || !(*ratio > 0.0) || std::abs(*ratio - 1.0) <= options_.lidar_rescale_ratio)
+    return false;
+  const double s = 1.0 / *ratio;
+  // About the oldest keyframe: the trajectory before the window stays where it is.
+  const Vec3 centre = map_.keyframes.front()->pose().translation();
+  std::vector<const double*> positions;
+  for (auto& kf : map_.keyframes) {
+    Eigen::Map<Vec3> p(kf->p_W_B);
+    p = centre + s * (p - centre);
+    positions.push_back(kf->p_W_B);
+    kf->lidar_rejected.clear();  // rejected at the wrong scale
+  }
+  for (auto& [id, lm] : map_.landmarks) lm.rho[0] /= s;
+  if (gauge_.marginalization)
+    gauge_.marginalization = gauge_.marginalization->scaledPositions(positions, centre, s);
+  if (map_.find(gauge_.kf_id) != nullptr)  // a pose prior on a keyframe of the window moves too
+    gauge_.T_W_B.translation() = centre + s * (gauge_.T_W_B.translation() - centre);
+  velocity_W_ *= s;
+  note("the LiDAR's ranges agreed on another scale than the window's: window rescaled to them");
+  return true;
 }
 
 void WindowCore::solveWindow() {

@@ -104,7 +104,27 @@ class WindowCore {
   // The scan's beams on smooth surfaces, in the image (to pair with features by their pixel).
   std::vector<BeamInImage> usableBeams(const LidarScan& scan) const;
   void triangulateNewLandmarks(Keyframe& kf);
+  // A range of the keyframe's scan to a landmark it sees, and the landmark's distance as the
+  // window has it (both in the scan plane for interpolated ranges).
+  struct LidarRange {
+    LidarAssociation association;
+    double landmark_m = 0.0;  // the landmark's distance from the LiDAR now
+    double measured_m = 0.0;  // the range it must agree with (ground beams: along the ray)
+    bool ground = false;      // a beam ending on the ground (lidar_ground_beams plane)
+  };
+  std::vector<LidarRange> lidarRangesAt(const Keyframe& kf) const;
+  /// Pairs the keyframe's landmarks with its scan's ranges (gate_depth: only those within
+  /// lidar_depth_gate of the landmark's distance), except those paired or rejected before.
   void associateLidar(Keyframe& kf, bool gate_depth);
+  /// The window's landmark distances over the LiDAR's ranges to them, when enough ranges from
+  /// enough landmarks agree on one ratio (lidar_rescale_*); nullopt otherwise.
+  std::optional<double> lidarScaleRatio() const;
+  /// When that ratio is off by more than lidar_rescale_ratio, scales the window to the LiDAR
+  /// (about its oldest keyframe: positions, landmarks, the marginalisation prior, the velocity).
+  /// The depth gate and the outlier test reject every range once the scale is off by more than
+  /// they allow, e.g. after a headland turn with nothing in LiDAR range: without this the window
+  /// kept a wrong scale for good when no camera-height factor held it.
+  bool rescaleToLidar();
   void solveWindow();
   void removeOutliers();
   /// Camera-height factors: per keyframe, the plane fitted to the landmarks it anchors; its

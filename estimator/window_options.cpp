@@ -73,6 +73,11 @@ WindowOptions readWindowOptions(const Config& c) {
       c.getInRange(p + "lidar_scan_time_tol_s", o.lidar_scan_time_tol_s, 0.0, 1.0);
   o.lidar_min_associations =
       c.getIntInRange(p + "lidar_min_associations", o.lidar_min_associations, 1, 10000);
+  o.lidar_rescale_ratio = c.getInRange(p + "lidar_rescale_ratio", o.lidar_rescale_ratio, 0.0, 10.0);
+  o.lidar_rescale_min_ranges =
+      c.getIntInRange(p + "lidar_rescale_min_ranges", o.lidar_rescale_min_ranges, 3, 10000);
+  o.lidar_rescale_agreement =
+      c.getInRange(p + "lidar_rescale_agreement", o.lidar_rescale_agreement, 0.001, 1.0);
 
   o.init_parallax_deg = c.getInRange(p + "init_parallax_deg", o.init_parallax_deg, 0.01, 45.0);
   o.init_min_tracks = c.getIntInRange(p + "init_min_tracks", o.init_min_tracks, 8, 100000);

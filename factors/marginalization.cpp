@@ -250,6 +250,29 @@ bool MarginalizationInfo::marginalize() {
   return true;
 }
 
+std::shared_ptr<const MarginalizationInfo> MarginalizationInfo::scaledPositions(
+    const std::vector<const double*>& position_blocks, const Eigen::Vector3d& centre,
+    double s) const {
+  auto out = std::make_shared<MarginalizationInfo>(*this);
+  int offset = 0;
+  for (double* kept : kept_) {
+    Block& b = out->blocks_.at(kept);
+    const bool scaled =
+        !b.quaternion && b.ambient == 3 &&
+        std::find(position_blocks.begin(), position_blocks.end(), kept) != position_blocks.end();
+    if (scaled) {
+      for (int k = 0; k < 3; ++k) b.x0[k] = centre[k] + s * (b.x0[k] - centre[k]);
+      // r = S dx + e0 with dx = x' / s - x0 / s: the columns of S over s (and H, b with them).
+      out->S_.middleCols(offset, 3) /= s;
+      out->H_prior_.middleCols(offset, 3) /= s;
+      out->H_prior_.middleRows(offset, 3) /= s;
+      out->b_prior_.segment(offset, 3) /= s;
+    }
+    offset += b.tangent;
+  }
+  return out;
+}
+
 MarginalizationFactor::MarginalizationFactor(std::shared_ptr<const MarginalizationInfo> info)
     : info_(std::move(info)) {
   set_num_residuals(static_cast<int>(info_->S_.rows()));

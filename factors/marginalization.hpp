@@ -56,6 +56,15 @@ class MarginalizationInfo {
   /// Linearisation point of a kept block (its ambient values at addResidualBlock time).
   const std::vector<double>& linearizationPoint(const double* block) const;
 
+  /// This prior for the kept states scaled about `centre`: each of `position_blocks` (kept
+  /// 3-vectors) maps x -> centre + s (x - centre). The copy holds the same shape at s times the
+  /// size: its linearisation point moves with the states and its Jacobian columns of those
+  /// blocks are divided by s, so at the scaled states it has the residual this one has at the
+  /// old ones. Blocks not kept, or not 3-vectors, are ignored.
+  std::shared_ptr<const MarginalizationInfo> scaledPositions(
+      const std::vector<const double*>& position_blocks, const Eigen::Vector3d& centre,
+      double s) const;
+
  private:
   struct Block {
     int ambient = 0;

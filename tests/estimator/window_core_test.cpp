@@ -388,6 +388,47 @@ TEST(WindowCore, ALidarThatStartsSeeingLateStillGivesTheStartItsScale) {
   EXPECT_NEAR(moved / moved_true, 1.0, 0.05);
 }
 
+TEST(WindowCore, AScaleOffByMoreThanTheLidarGatesComesBackWhenTheRangesAgree) {
+  // No camera height, and for the first 2.5 s a LiDAR whose ranges read 1.5x too long: the window
+  // starts at 1.5x the true scale. The true ranges after that are 33 % shorter than the landmarks,
+  // beyond the depth gate (25 %) and the outlier test (5 %), so every one of them was rejected and
+  // the wrong scale kept for good. They agree with each other on one ratio: the window is
+  // rescaled to them.
+  SyntheticOptions o;
+  o.duration_s = 8.0;
+  auto seq = makeSyntheticSequence(o);
+  seq.setup.camera_height_m.reset();
+  const Timestamp until = seq.frames.front().t_ns + static_cast<Timestamp>(2.5e9);
+  for (LidarScan& scan : seq.scans)
+    if (scan.t_ns < until)
+      for (double& range : scan.ranges_m) range *= 1.5;
+  const auto scaleOver = [&](const RunResult& r, std::size_t from, std::size_t to) {
+    const double moved =
+        (r.trajectory[to].T_W_B.translation() - r.trajectory[from].T_W_B.translation()).norm();
+    return moved / (truthRel(seq, to).translation() - truthRel(seq, from).translation()).norm();
+  };
+  const std::size_t last = seq.frames.size() - 1, from = last - 40;  // the last 2 s
+
+  WindowOptions off;
+  off.lidar_rescale_ratio = 0.0;
+  const auto kept = run(seq, off);
+  expectAllFinite(kept);
+  EXPECT_NEAR(scaleOver(kept, from, last), 1.5, 0.1)
+      << "without the rescale the start's scale stays";
+
+  const auto r = run(seq);
+  expectAllFinite(r);
+  EXPECT_TRUE(noted(r, "window rescaled"));
+  EXPECT_NEAR(scaleOver(r, from, last), 1.0, 0.05);
+  // The rescale moves the window about its oldest keyframe: the current pose steps by a fraction
+  // of the window's length (0.09 m here), not back to the start. A frame's step at 1.5x is 0.06 m.
+  for (std::size_t k = 1; k < r.trajectory.size(); ++k)
+    EXPECT_LT(
+        (r.trajectory[k].T_W_B.translation() - r.trajectory[k - 1].T_W_B.translation()).norm(),
+        0.12)
+        << "frame " << k;
+}
+
 TEST(WindowCore, WithNoScaleAtAllItStartsAtAUnitBaselineWithinAFewSeconds) {
   // A LiDAR that never sees anything and no camera height: after putting off and restarting
   // for 2 s the window starts at a unit baseline and says so, rather than never.

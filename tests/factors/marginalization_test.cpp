@@ -367,5 +367,74 @@ TEST_F(NonlinearWindow, PriorResidualAndJacobianMatchNumericAtAndAwayFromLineari
   testing::expectJacobiansMatch(prior, values, is_quat, 1e-6);
 }
 
+TEST_F(NonlinearWindow, ScaledPriorHasTheSameResidualAtTheScaledPositions) {
+  auto info = std::make_shared<MarginalizationInfo>();
+  for (int k = 0; k < 3; ++k) info->setQuaternionBlock(q_[k].data());
+  const auto drop = dropped();
+  for (const LossyFactor& f : factors_) {
+    std::vector<int> drop_idx;
+    for (std::size_t i = 0; i < f.blocks.size(); ++i)
+      if (drop.count(f.blocks[i])) drop_idx.push_back(static_cast<int>(i));
+    if (drop_idx.empty()) continue;
+    ASSERT_TRUE(info->addResidualBlock(f.cost.get(), f.loss.get(), f.blocks, drop_idx));
+  }
+  ASSERT_TRUE(info->marginalize());
+  const Vec3 centre(0.3, -0.2, 0.1);
+  const double s = 1.7;
+  const std::vector<const double*> positions = {p_[1].data(), p_[2].data()};
+  const auto scaled = info->scaledPositions(positions, centre, s);
+
+  // Some state away from the linearisation point, and the same state scaled about the centre.
+  std::mt19937 rng(33);
+  std::vector<std::vector<double>> values, values_scaled;
+  std::vector<bool> is_quat;
+  ceres::EigenQuaternionManifold qm;
+  for (double* p : info->keptBlocks()) {
+    std::vector<double> v = info->linearizationPoint(p);
+    if (isQuat(p)) {
+      const Vec3 d = testing::randomVec(rng, 0.1);
+      std::vector<double> out(4);
+      qm.Plus(v.data(), d.data(), out.data());
+      v = out;
+    } else {
+      for (double& x : v) x += 0.05;
+    }
+    values.push_back(v);
+    const bool is_position = p == p_[1].data() || p == p_[2].data();
+    if (is_position)
+      for (int k = 0; k < 3; ++k) v[k] = centre[k] + s * (v[k] - centre[k]);
+    values_scaled.push_back(v);
+    is_quat.push_back(isQuat(p));
+  }
+  const Eigen::VectorXd r = testing::evaluate(MarginalizationFactor(info), values);
+  const Eigen::VectorXd r_scaled = testing::evaluate(MarginalizationFactor(scaled), values_scaled);
+  EXPECT_LT((r - r_scaled).norm(), 1e-9 * std::max(1.0, r.norm()));
+  // The scaled positions' linearisation points moved with them; the rest did not.
+  for (double* p : info->keptBlocks()) {
+    const auto& x0 = info->linearizationPoint(p);
+    const auto& x0_scaled = scaled->linearizationPoint(p);
+    const bool is_position = p == p_[1].data() || p == p_[2].data();
+    for (std::size_t k = 0; k < x0.size(); ++k)
+      EXPECT_NEAR(x0_scaled[k], is_position ? centre[k] + s * (x0[k] - centre[k]) : x0[k], 1e-12);
+  }
+  // Its Hessian and gradient are the old ones with the position rows and columns over s.
+  Eigen::VectorXd d(info->priorHessian().rows());
+  int offset = 0;
+  for (double* p : info->keptBlocks()) {
+    const int n = isQuat(p) ? 3 : static_cast<int>(info->linearizationPoint(p).size());
+    const bool is_position = p == p_[1].data() || p == p_[2].data();
+    d.segment(offset, n).setConstant(is_position ? 1.0 / s : 1.0);
+    offset += n;
+  }
+  const Eigen::MatrixXd H_expected = d.asDiagonal() * info->priorHessian() * d.asDiagonal();
+  EXPECT_LT((scaled->priorHessian() - H_expected).cwiseAbs().maxCoeff(),
+            1e-12 * H_expected.cwiseAbs().maxCoeff());
+  EXPECT_LT((scaled->priorGradient() - d.asDiagonal() * info->priorGradient()).norm(),
+            1e-12 * std::max(1.0, info->priorGradient().norm()));
+  testing::expectJacobiansMatch(MarginalizationFactor(scaled), values_scaled, is_quat, 1e-6);
+  // The unscaled prior at the scaled positions is far off: the residual check is not vacuous.
+  EXPECT_GT((testing::evaluate(MarginalizationFactor(info), values_scaled) - r).norm(), 1e-3);
+}
+
 }  // namespace
 }  // namespace ovo::factors
