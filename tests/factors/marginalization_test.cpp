@@ -261,6 +261,21 @@ class NonlinearWindow : public ::testing::Test {
   std::set<const double*> dropped() const {
     return {q_[0].data(), p_[0].data(), b_[0].data(), rhoA_.data()};
   }
+  /// The prior of keyframe 0 and landmark A (every factor touching them), null on failure.
+  std::shared_ptr<const MarginalizationInfo> marginalizeKeyframe0() const {
+    auto info = std::make_shared<MarginalizationInfo>();
+    for (int k = 0; k < 3; ++k) info->setQuaternionBlock(q_[k].data());
+    const auto drop = dropped();
+    for (const LossyFactor& f : factors_) {
+      std::vector<int> drop_idx;
+      for (std::size_t i = 0; i < f.blocks.size(); ++i)
+        if (drop.count(f.blocks[i])) drop_idx.push_back(static_cast<int>(i));
+      if (drop_idx.empty()) continue;
+      if (!info->addResidualBlock(f.cost.get(), f.loss.get(), f.blocks, drop_idx)) return nullptr;
+    }
+    if (!info->marginalize()) return nullptr;
+    return info;
+  }
 
   struct LossyFactor {
     std::shared_ptr<ceres::CostFunction> cost;
@@ -328,17 +343,8 @@ TEST_F(NonlinearWindow, PriorMatchesDenseSchurComplementOfCeresJacobian) {
 }
 
 TEST_F(NonlinearWindow, PriorResidualAndJacobianMatchNumericAtAndAwayFromLinearization) {
-  auto info = std::make_shared<MarginalizationInfo>();
-  for (int k = 0; k < 3; ++k) info->setQuaternionBlock(q_[k].data());
-  const auto drop = dropped();
-  for (const LossyFactor& f : factors_) {
-    std::vector<int> drop_idx;
-    for (std::size_t i = 0; i < f.blocks.size(); ++i)
-      if (drop.count(f.blocks[i])) drop_idx.push_back(static_cast<int>(i));
-    if (drop_idx.empty()) continue;
-    ASSERT_TRUE(info->addResidualBlock(f.cost.get(), f.loss.get(), f.blocks, drop_idx));
-  }
-  ASSERT_TRUE(info->marginalize());
+  const auto info = marginalizeKeyframe0();
+  ASSERT_TRUE(info);
   const MarginalizationFactor prior(info);
   std::vector<std::vector<double>> values;
   std::vector<bool> is_quat;
@@ -368,17 +374,8 @@ TEST_F(NonlinearWindow, PriorResidualAndJacobianMatchNumericAtAndAwayFromLineari
 }
 
 TEST_F(NonlinearWindow, ScaledPriorHasTheSameResidualAtTheScaledPositions) {
-  auto info = std::make_shared<MarginalizationInfo>();
-  for (int k = 0; k < 3; ++k) info->setQuaternionBlock(q_[k].data());
-  const auto drop = dropped();
-  for (const LossyFactor& f : factors_) {
-    std::vector<int> drop_idx;
-    for (std::size_t i = 0; i < f.blocks.size(); ++i)
-      if (drop.count(f.blocks[i])) drop_idx.push_back(static_cast<int>(i));
-    if (drop_idx.empty()) continue;
-    ASSERT_TRUE(info->addResidualBlock(f.cost.get(), f.loss.get(), f.blocks, drop_idx));
-  }
-  ASSERT_TRUE(info->marginalize());
+  const auto info = marginalizeKeyframe0();
+  ASSERT_TRUE(info);
   const Vec3 centre(0.3, -0.2, 0.1);
   const double s = 1.7;
   const std::vector<const double*> positions = {p_[1].data(), p_[2].data()};
