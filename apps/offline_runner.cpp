@@ -119,7 +119,8 @@ void runPipelined(const io::Dataset& data, estimator::Estimator& est, const Prog
         const auto& entry = data.images[i];
         cv::Mat grey = io::loadImageGrey(entry);  // a corrupt image is an error naming the file
         estimator::feedUntilImage(entry.t_ns, data.imu, frontend_imu, data.scans, no_scan, stage);
-        if (!queue.waitForUpdates(i - 1)) return;  // track(i) after update(i - 2)
+        // track(i) after update(i - 1 - lead): the frontend runs up to `lead` frames ahead.
+        if (!queue.waitForUpdates(i - estimator::kFrontendLeadFrames)) return;
         auto frame = est.track(entry.t_ns, grey);
         queue.push({std::move(frame), std::move(grey)});
       }

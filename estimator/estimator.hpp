@@ -100,6 +100,14 @@ struct FrontendFrame {
   std::vector<TrackPx> tracks;  // features of this image on tracks of age >= 2 (viewers)
 };
 
+/// How far the frontend stage may run ahead of the estimator stage without changing the poses:
+/// track(k)'s gyro prior uses the bias that update(k - 1 - kFrontendLeadFrames) published
+/// (estimator::FrontendGyro), so a runner that starts track(k) once that update is done gets the
+/// poses of the two stages run in sequence. Eight frames let the frontend go on through a
+/// keyframe's solve (tens of ms). A bias 0.4 s older (at 20 Hz) moves the matching prior's
+/// prediction by a small fraction of a pixel.
+inline constexpr int kFrontendLeadFrames = 8;
+
 /// Threads: track() and addFrontendGyro() touch only frontend state and may run on one thread
 /// while update(), addEstimatorGyro(), addScan() and the rest run on another; addFrontendGyro()
 /// may be called from any thread. Each stage sees its own calls in time order.
@@ -110,7 +118,7 @@ class Estimator {
 
   /// Frontend stage: detection, matching, tracks and relative pose of one grey image (CV_8UC1),
   /// with the gyro rotation prior from the samples given to addFrontendGyro() and the bias the
-  /// estimator stage last published.
+  /// estimator stage published kFrontendLeadFrames + 1 frames before.
   virtual std::unique_ptr<FrontendFrame> track(Timestamp t_ns, const cv::Mat& grey) = 0;
   /// Estimator stage: the body pose at the time of a frame from this estimator's track() (frames
   /// in the order they were tracked). Throws ovo::Error for a frame of another estimator.

@@ -456,7 +456,7 @@ class KfEstimator final : public Estimator {
   KfEstimatorOptions options_;
   // Frontend stage.
   VoChain chain_;
-  FrontendGyro frontend_gyro_;
+  FrontendGyro frontend_gyro_{kFrontendLeadFrames};
   std::optional<Timestamp> frontend_last_t_;  // the frontend's previous image
   // Estimator stage.
   KfFilter filter_;

@@ -84,7 +84,7 @@ class WindowEstimator final : public Estimator {
 
   // Frontend stage.
   frontend::Frontend frontend_;
-  FrontendGyro frontend_gyro_;
+  FrontendGyro frontend_gyro_{kFrontendLeadFrames};
   std::optional<Timestamp> last_t_;  // the frontend's previous image
   // Estimator stage.
   WindowCore core_;

@@ -6,9 +6,12 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <atomic>
+#include <chrono>
 #include <condition_variable>
 #include <fstream>
 #include <mutex>
+#include <thread>
 
 #include "apps/offline_runner.hpp"
 #include "apps/online_pipeline.hpp"
@@ -186,6 +189,48 @@ TEST_P(OfflinePipeline, GivesThePosesOfTheStagesInSequence) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Estimators, OfflinePipeline, ::testing::Values("kf", "window"));
+
+// Counts, at each track(k), how many update() calls are done; update() is slow (a keyframe's
+// solve).
+class SlowUpdateEstimator final : public estimator::Estimator {
+ public:
+  std::string name() const override { return "slow-update"; }
+  std::unique_ptr<estimator::FrontendFrame> track(Timestamp t_ns, const cv::Mat&) override {
+    const int k = tracked_++;
+    max_ahead_ = std::max(max_ahead_, k - updates_done_.load());
+    auto frame = std::make_unique<estimator::FrontendFrame>();
+    frame->t_ns = t_ns;
+    return frame;
+  }
+  estimator::FrameEstimate update(std::unique_ptr<estimator::FrontendFrame> frame) override {
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    estimator::FrameEstimate e;
+    e.t_ns = frame->t_ns;
+    ++updates_done_;
+    return e;
+  }
+  void addEstimatorGyro(const ImuSample&) override {}
+  void addScan(const LidarScan&) override {}
+  Trajectory trajectory() const override { return {}; }
+  estimator::EstimatorStats stats() const override { return {}; }
+  int maxAhead() const { return max_ahead_; }
+
+ private:
+  int tracked_ = 0, max_ahead_ = 0;  // frontend thread only
+  std::atomic<int> updates_done_{0};
+};
+
+TEST(OfflinePipeline, TheFrontendRunsAheadThroughASlowUpdateByAtMostTheLead) {
+  // track(k) may start once update(k - 1 - lead) is done: k - updates done <= lead. With a slow
+  // update the frontend reaches that bound (it goes on meanwhile) and never passes it (the gyro
+  // prior's bias would then depend on the threads' timing).
+  if (!fs::exists(test::ovoBinaryPath())) GTEST_SKIP() << "ovo not built";
+  const io::Dataset data = firstImages(io::loadDataset(simulatedRow()), 40);
+  SlowUpdateEstimator est;
+  const OfflineRunResult result = runOffline(data, est);
+  EXPECT_EQ(result.frames.size(), 40u);
+  EXPECT_EQ(est.maxAhead(), estimator::kFrontendLeadFrames);
+}
 
 TEST(OfflinePipelineErrors, ACorruptImageStopsBothStagesAndNamesTheFile) {
   if (!fs::exists(test::ovoBinaryPath())) GTEST_SKIP() << "ovo not built";

@@ -16,36 +16,49 @@ ImuSample sample(Timestamp t_ns) {
   return s;
 }
 
-TEST(FrontendGyro, ThePriorUpToFrameKUsesTheBiasPublishedAfterFrameKMinus2) {
-  // Frames every 50 ms; the prior from frame k-1 to k must not depend on whether update(k-1),
-  // which runs on the other thread at the same time, has published yet.
-  FrontendGyro early, late;  // frame 2's bias published before / after frame 3's prior is taken
-  for (FrontendGyro* gyro : {&early, &late}) {
-    for (Timestamp t = 0; t <= 200 * kMs; t += 5 * kMs) gyro->add(sample(t));
-    EXPECT_EQ(gyro->take(0, 50 * kMs).bias_radps, Vec3::Zero());  // nothing published yet
-    gyro->publishBias(0, Vec3(1, 0, 0));                          // after frame 0
-    gyro->publishBias(50 * kMs, Vec3(2, 0, 0));                   // after frame 1
-    // Frame 2's prior (from frame 1): frame 0's bias, although frame 1's is already there.
-    EXPECT_EQ(gyro->take(50 * kMs, 100 * kMs).bias_radps, Vec3(1, 0, 0));
+Vec3 biasOfFrame(int k) { return Vec3(k + 1, 0, 0); }
+
+class FrontendGyroLead : public ::testing::TestWithParam<int> {};
+
+TEST_P(FrontendGyroLead, ThePriorUpToFrameKUsesTheBiasPublishedAfterFrameKMinus1MinusLead) {
+  // Frames every 50 ms; the prior from frame k-1 to k must not depend on how many of
+  // update(k-lead) .. update(k-1), which may run on the other thread meanwhile, have published.
+  const int lead = GetParam();
+  constexpr int kFrames = 20;
+  FrontendGyro early(lead), late(lead);  // the estimator stage as far ahead / behind as it may be
+  for (FrontendGyro* gyro : {&early, &late})
+    for (Timestamp t = 0; t <= kFrames * 50 * kMs; t += 5 * kMs) gyro->add(sample(t));
+  int early_published = 0, late_published = 0;
+  for (int k = 1; k < kFrames; ++k) {
+    // early: update(k-1) is done; late: only update(k-1-lead) is.
+    for (; early_published <= k - 1; ++early_published)
+      early.publishBias(early_published * 50 * kMs, biasOfFrame(early_published));
+    for (; late_published <= k - 1 - lead; ++late_published)
+      late.publishBias(late_published * 50 * kMs, biasOfFrame(late_published));
+    const Vec3 expected = k - 1 - lead >= 0 ? biasOfFrame(k - 1 - lead) : Vec3::Zero();
+    SCOPED_TRACE(::testing::Message() << "lead " << lead << ", frame " << k);
+    EXPECT_EQ(early.take((k - 1) * 50 * kMs, k * 50 * kMs).bias_radps, expected);
+    EXPECT_EQ(late.take((k - 1) * 50 * kMs, k * 50 * kMs).bias_radps, expected);
   }
-  early.publishBias(100 * kMs, Vec3(3, 0, 0));
-  EXPECT_EQ(early.take(100 * kMs, 150 * kMs).bias_radps, Vec3(2, 0, 0));
-  EXPECT_EQ(late.take(100 * kMs, 150 * kMs).bias_radps, Vec3(2, 0, 0));
 }
 
-TEST(FrontendGyro, AnEstimatorStageFarBehindGivesTheNewestBiasItHasPublished) {
-  FrontendGyro gyro;
-  for (Timestamp t = 0; t <= 400 * kMs; t += 5 * kMs) gyro.add(sample(t));
+INSTANTIATE_TEST_SUITE_P(Leads, FrontendGyroLead, ::testing::Values(0, 1, 3, 8));
+
+TEST(FrontendGyro, AnEstimatorStageFarBehindGivesTheNewestBiasPublishedBeforeTheLead) {
+  FrontendGyro gyro(1);
+  for (Timestamp t = 0; t <= 500 * kMs; t += 5 * kMs) gyro.add(sample(t));
   gyro.publishBias(0, Vec3(1, 0, 0));
+  gyro.take(250 * kMs, 300 * kMs);  // frame 250 ms is one frame before 300 ms
   EXPECT_EQ(gyro.take(300 * kMs, 350 * kMs).bias_radps, Vec3(1, 0, 0));
-  // Out-of-order publications are ignored.
-  gyro.publishBias(400 * kMs, Vec3(4, 0, 0));
+  // Out-of-order publications are ignored; one after the lead's frame is not used yet.
+  gyro.publishBias(340 * kMs, Vec3(4, 0, 0));
   gyro.publishBias(100 * kMs, Vec3(9, 0, 0));
-  EXPECT_EQ(gyro.take(350 * kMs, 410 * kMs).bias_radps, Vec3(1, 0, 0));
+  EXPECT_EQ(gyro.take(350 * kMs, 410 * kMs).bias_radps, Vec3(1, 0, 0));  // newest by 300 ms
+  EXPECT_EQ(gyro.take(410 * kMs, 460 * kMs).bias_radps, Vec3(4, 0, 0));  // newest by 350 ms
 }
 
 TEST(FrontendGyro, TakeHandsOutTheSamplesAroundTheInterval) {
-  FrontendGyro gyro;
+  FrontendGyro gyro(1);
   for (Timestamp t = 0; t <= 100 * kMs; t += 10 * kMs) gyro.add(sample(t));
   const auto w = gyro.take(25 * kMs, 55 * kMs);
   ASSERT_EQ(w.samples.size(), 5u);  // 20 (before 25) .. 60 (after 55)
