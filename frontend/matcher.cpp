@@ -1,5 +1,8 @@
 #include "frontend/matcher.hpp"
 
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -12,6 +15,8 @@ namespace ovo::frontend {
 namespace {
 
 constexpr std::uint32_t kNoCost = std::numeric_limits<std::uint32_t>::max();
+// Searches per task when the dense pass is spread over the cores (a search takes ~0.5 us).
+constexpr std::size_t kSearchGrain = 256;
 
 Vec2 toGrid(const FeatureFrame& frame, const Vec2& px_full) {
   return frame.scale == 1 ? px_full : Vec2((px_full.x() - 0.5) / 2.0, (px_full.y() - 0.5) / 2.0);
@@ -280,19 +285,45 @@ std::vector<Match> Matcher::match(const FeatureFrame& prev, const FeatureFrame& 
     const kernels::SearchGrid cur_sparse_grid = searchGrid(cur_sparse_);
     std::vector<std::pair<int, int>>& sparse = sparse_pairs_;
     sparse.clear();
-    sparse_reverse_.assign(prev_sparse_.size(), -2);  // memo of previous -> current searches
-    for (const int q : cur_sparse_index_) {
-      std::uint32_t cost = 0;
-      const int p_sub = search(cur, q, prev_sparse_grid,
-                               window(cur, q, prev, pred_prev_of_cur, cur_valid, nullptr), &cost);
-      if (p_sub < 0) continue;
-      const int p = prev_sparse_index_[p_sub];
-      int& q2_sub = sparse_reverse_[p_sub];
-      if (q2_sub == -2) {
-        q2_sub = search(prev, p, cur_sparse_grid,
-                        window(prev, p, cur, pred_cur_of_prev, prev_valid, nullptr), &cost);
+    // As the dense pass below: the searches over the cores, then put together in order.
+    std::vector<Searched>& back = sparse_back_;
+    back.resize(cur_sparse_index_.size());
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, cur_sparse_index_.size(), kSearchGrain),
+                      [&](const tbb::blocked_range<std::size_t>& range) {
+                        for (std::size_t i = range.begin(); i != range.end(); ++i) {
+                          const int q = cur_sparse_index_[i];
+                          back[i].cost = 0;
+                          back[i].index =
+                              search(cur, q, prev_sparse_grid,
+                                     window(cur, q, prev, pred_prev_of_cur, cur_valid, nullptr),
+                                     &back[i].cost);
+                        }
+                      });
+    sparse_reverse_.assign(prev_sparse_.size(), -2);  // previous -> current, -2: not searched
+    reverse_queries_.clear();
+    for (const Searched& b : back) {
+      if (b.index >= 0 && sparse_reverse_[b.index] == -2) {
+        sparse_reverse_[b.index] = -1;
+        reverse_queries_.push_back(b.index);
       }
-      if (q2_sub >= 0 && cur_sparse_index_[q2_sub] == q) sparse.emplace_back(p, q);
+    }
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, reverse_queries_.size(), kSearchGrain),
+                      [&](const tbb::blocked_range<std::size_t>& range) {
+                        for (std::size_t i = range.begin(); i != range.end(); ++i) {
+                          const int p_sub = reverse_queries_[i];
+                          const int p = prev_sparse_index_[p_sub];
+                          std::uint32_t cost = 0;
+                          sparse_reverse_[p_sub] = search(
+                              prev, p, cur_sparse_grid,
+                              window(prev, p, cur, pred_cur_of_prev, prev_valid, nullptr), &cost);
+                        }
+                      });
+    for (std::size_t i = 0; i < cur_sparse_index_.size(); ++i) {
+      const int q = cur_sparse_index_[i], p_sub = back[i].index;
+      if (p_sub < 0) continue;
+      const int q2_sub = sparse_reverse_[p_sub];
+      if (q2_sub >= 0 && cur_sparse_index_[q2_sub] == q)
+        sparse.emplace_back(prev_sparse_index_[p_sub], q);
     }
     px_.resize(sparse.size());
     flow_.resize(sparse.size());
@@ -348,29 +379,51 @@ std::vector<Match> Matcher::match(const FeatureFrame& prev, const FeatureFrame& 
   const kernels::SearchGrid prev_grid = searchGrid(prev), cur_grid = searchGrid(cur);
   // A current feature matches at most one previous one (the result of its reverse search): the
   // matches go to slot_of_cur_ and come out ordered by current index.
+  // The searches are independent (const, no shared scratch), so they are spread over the cores:
+  // first every query's forward search, then the reverse search of every current feature a query
+  // found (once each), then the matches are put together in query order as one thread would.
+  forward_.resize(queries_.size());
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, queries_.size(), kSearchGrain),
+                    [&](const tbb::blocked_range<std::size_t>& range) {
+                      for (std::size_t i = range.begin(); i != range.end(); ++i) {
+                        const int p = queries_[i];
+                        Searched& f = forward_[i];
+                        f.cost = 0;
+                        f.index = search(prev, p, cur_grid,
+                                         window(prev, p, cur, pred_cur_of_prev, prev_valid,
+                                                use_prior ? &prior_from_prev_ : nullptr),
+                                         &f.cost);
+                      }
+                    });
+  reverse_.assign(cur.size(), -2);  // -2: not searched
+  reverse_queries_.clear();
+  for (const Searched& f : forward_) {
+    if (f.index >= 0 && reverse_[f.index] == -2) {
+      reverse_[f.index] = -1;
+      reverse_queries_.push_back(f.index);
+    }
+  }
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, reverse_queries_.size(), kSearchGrain),
+                    [&](const tbb::blocked_range<std::size_t>& range) {
+                      for (std::size_t i = range.begin(); i != range.end(); ++i) {
+                        const int q = reverse_queries_[i];
+                        std::uint32_t back_cost = 0;
+                        reverse_[q] = search(cur, q, prev_grid,
+                                             window(cur, q, prev, pred_prev_of_cur, cur_valid,
+                                                    use_prior ? &prior_from_cur_ : nullptr),
+                                             &back_cost);
+                      }
+                    });
   match_buffer_.clear();
   slot_of_cur_.assign(cur.size(), -1);
-  reverse_.assign(cur.size(), -2);
-  for (const int p : queries_) {
-    std::uint32_t cost = 0;
-    const int q = search(
-        prev, p, cur_grid,
-        window(prev, p, cur, pred_cur_of_prev, prev_valid, use_prior ? &prior_from_prev_ : nullptr),
-        &cost);
-    if (q < 0) continue;
-    if (reverse_[q] == -2) {
-      std::uint32_t back_cost = 0;
-      reverse_[q] = search(
-          cur, q, prev_grid,
-          window(cur, q, prev, pred_prev_of_cur, cur_valid, use_prior ? &prior_from_cur_ : nullptr),
-          &back_cost);
-    }
-    if (reverse_[q] != p) continue;
+  const bool response = options_.subpixel == SubpixelMode::kResponse;
+  for (std::size_t i = 0; i < queries_.size(); ++i) {
+    const int p = queries_[i], q = forward_[i].index;
+    if (q < 0 || reverse_[q] != p) continue;
     Match m;
     m.prev = p;
     m.cur = q;
-    m.cost = cost;
-    const bool response = options_.subpixel == SubpixelMode::kResponse;
+    m.cost = forward_[i].cost;
     m.px_prev = prev.pixel(p, response);
     m.px_cur = cur.pixel(q, response);
     slot_of_cur_[q] = static_cast<int>(match_buffer_.size());
@@ -386,15 +439,20 @@ std::vector<Match> Matcher::match(const FeatureFrame& prev, const FeatureFrame& 
 
   // Sub-pixel refinement (and the SSD-minimum check of every mode), before the Delaunay filter so
   // that only well-localised matches support their neighbours.
+  refined_.resize(matches.size());
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, matches.size(), kSearchGrain),
+                    [&](const tbb::blocked_range<std::size_t>& range) {
+                      for (std::size_t k = range.begin(); k != range.end(); ++k)
+                        refined_[k] = refineCost(prev, matches[k].prev, cur, matches[k].cur);
+                    });
   std::size_t num_refined = 0;
   for (std::size_t k = 0; k < matches.size(); ++k) {
-    Match& m = matches[k];
-    const auto refined = refineCost(prev, m.prev, cur, m.cur);
-    if (!refined) {
+    Match m = matches[k];
+    if (!refined_[k]) {
       ++local_stats.not_minimum;
       continue;
     }
-    if (options_.subpixel == SubpixelMode::kCost) m.px_cur = *refined;
+    if (options_.subpixel == SubpixelMode::kCost) m.px_cur = *refined_[k];
     matches[num_refined++] = m;
   }
   matches.resize(num_refined);

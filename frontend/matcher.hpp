@@ -117,12 +117,20 @@ class Matcher {
 
   int recip_bin_size_ = 0;  // bin size that bin_recip_ divides by
   std::uint64_t bin_recip_ = 0;
-  std::vector<int> reverse_;               // memo of cur -> prev searches
-  std::vector<int> sparse_reverse_;        // memo of prev -> cur searches of the sparse pass
-  std::vector<int> slot_of_cur_;           // dense match of each current feature (-1: none)
-  std::vector<Match> match_buffer_;        // dense matches in query order
-  std::vector<int> queries_;               // previous features searched for in the dense pass
-  std::vector<int> group_;                 // scratch of selectQueries
+  struct Searched {
+    int index = -1;  // the match found (-1: none)
+    std::uint32_t cost = 0;
+  };
+  std::vector<Searched> forward_;     // dense pass: each query's prev -> cur search
+  std::vector<int> reverse_;          // cur -> prev search of each current feature
+  std::vector<int> reverse_queries_;  // the features searched back from (dense, then sparse pass)
+  std::vector<std::optional<Vec2>> refined_;  // refineCost of each circle match
+  std::vector<Searched> sparse_back_;         // sparse pass: each sparse cur -> prev search
+  std::vector<int> sparse_reverse_;  // sparse pass: prev -> cur search of each (-2: not searched)
+  std::vector<int> slot_of_cur_;     // dense match of each current feature (-1: none)
+  std::vector<Match> match_buffer_;  // dense matches in query order
+  std::vector<int> queries_;         // previous features searched for in the dense pass
+  std::vector<int> group_;           // scratch of selectQueries
   FeatureFrame prev_sparse_, cur_sparse_;  // sparse features only
   std::vector<int> prev_sparse_index_, cur_sparse_index_;
   std::vector<std::pair<int, int>> sparse_pairs_;  // circle-checked sparse (prev, cur)
