@@ -11,6 +11,12 @@
 #include "frontend/timing.hpp"
 
 namespace ovo::frontend {
+namespace {
+
+// Features per task where per-feature work (bearings, predictions) is spread over the cores.
+constexpr int kPerFeatureGrain = 512;
+
+}  // namespace
 
 FrontendOptions readFrontendOptions(const Config& cfg) {
   FrontendOptions o;
@@ -83,6 +89,7 @@ void Frontend::reset() {
   prev_px_.clear();
   prev_grey_.release();
   prev_bearing_.clear();
+  prev_feature_bearing_.clear();
 }
 
 Vec3 Frontend::bearingOf(const Vec2& px) const {
@@ -96,22 +103,38 @@ Vec3 Frontend::bearingOf(const Vec2& px) const {
   return camera::unproject(camera_, px).value_or(Vec3::Zero());
 }
 
+void Frontend::featureBearings(const FeatureFrame& frame, std::vector<Vec3>* bearings) const {
+  bearings->resize(frame.size());
+  // Independent per feature (mostly waiting on the bearing table): over the cores.
+  tbb::parallel_for(tbb::blocked_range<int>(0, frame.size(), kPerFeatureGrain),
+                    [&](const tbb::blocked_range<int>& range) {
+                      for (int i = range.begin(); i != range.end(); ++i)
+                        (*bearings)[i] = bearingOf(frame.pixel(i));
+                    });
+}
+
 void Frontend::predict(const Mat3& R_cur_prev, MatchPrediction* prediction) const {
-  const auto predictAll = [&](const FeatureFrame& frame, const Mat3& R, std::vector<Vec2>* px,
-                              std::vector<std::uint8_t>* valid) {
-    px->resize(frame.size());
-    valid->assign(frame.size(), 0);
-    for (int i = 0; i < frame.size(); ++i) {
-      const Vec3 b = bearingOf(frame.pixel(i));
-      if (b.isZero()) continue;
-      const auto p = camera::project(camera_, R * b);
-      if (!p) continue;
-      (*px)[i] = *p;
-      (*valid)[i] = 1;
-    }
+  const auto predictAll = [&](const std::vector<Vec3>& bearings, const Mat3& R,
+                              std::vector<Vec2>* px, std::vector<std::uint8_t>* valid) {
+    const int n = static_cast<int>(bearings.size());
+    px->resize(n);
+    valid->assign(n, 0);
+    tbb::parallel_for(tbb::blocked_range<int>(0, n, kPerFeatureGrain),
+                      [&](const tbb::blocked_range<int>& range) {
+                        for (int i = range.begin(); i != range.end(); ++i) {
+                          const Vec3& b = bearings[i];
+                          if (b.isZero()) continue;
+                          const auto p = camera::project(camera_, R * b);
+                          if (!p) continue;
+                          (*px)[i] = *p;
+                          (*valid)[i] = 1;
+                        }
+                      });
   };
-  predictAll(prev_, R_cur_prev, &prediction->cur_px_of_prev, &prediction->prev_valid);
-  predictAll(cur_, R_cur_prev.transpose(), &prediction->prev_px_of_cur, &prediction->cur_valid);
+  predictAll(prev_feature_bearing_, R_cur_prev, &prediction->cur_px_of_prev,
+             &prediction->prev_valid);
+  predictAll(cur_feature_bearing_, R_cur_prev.transpose(), &prediction->prev_px_of_cur,
+             &prediction->cur_valid);
 }
 
 FrontendResult Frontend::process(Timestamp t_ns, const cv::Mat& grey,
@@ -135,6 +158,7 @@ FrontendResult Frontend::process(Timestamp t_ns, const cv::Mat& grey,
   cpu.filter_ms = extract.filter_cpu_ms;
   cpu.nms_ms = extract.nms_cpu_ms;
   result.num_features = cur_.size();
+  cur_feature_bearing_.clear();
   double extract_wall_ms = 0.0, extract_cpu_ms = 0.0;
   clock.lap(&extract_wall_ms, &extract_cpu_ms);
 
@@ -145,7 +169,12 @@ FrontendResult Frontend::process(Timestamp t_ns, const cv::Mat& grey,
   if (has_prev_) {
     MatchPrediction prediction;
     const bool predicted = R_cur_prev_prior && options_.use_rotation_prior;
-    if (predicted) predict(*R_cur_prev_prior, &prediction);
+    if (predicted) {
+      if (prev_feature_bearing_.size() != static_cast<std::size_t>(prev_.size()))
+        featureBearings(prev_, &prev_feature_bearing_);  // the previous frame had no prior
+      featureBearings(cur_, &cur_feature_bearing_);
+      predict(*R_cur_prev_prior, &prediction);
+    }
     std::vector<int> prev_age(prev_.size());
     for (int i = 0; i < prev_.size(); ++i) prev_age[i] = tracker_.current(i).age;
     matches = matcher_.match(prev_, cur_, predicted ? &prediction : nullptr, &result.match_stats,
@@ -186,14 +215,21 @@ FrontendResult Frontend::process(Timestamp t_ns, const cv::Mat& grey,
       if (refined_px[k]) px[matches[k].cur] = *refined_px[k];
   }
   std::vector<Vec3> bearings(cur_.size());
-  for (int j = 0; j < cur_.size(); ++j) {
-    bearings[j] = bearingOf(px[j]);
-    if (bearings[j].isZero() && prev_index[j] >= 0) {  // flow pushed it off the model's domain
-      px[j] = cur_.pixel(j, refined);
-      bearings[j] = bearingOf(px[j]);
-      prev_index[j] = -1;
-    }
-  }
+  tbb::parallel_for(tbb::blocked_range<int>(0, cur_.size(), kPerFeatureGrain),
+                    [&](const tbb::blocked_range<int>& range) {
+                      for (int j = range.begin(); j != range.end(); ++j) {
+                        // An unmatched feature keeps its detected pixel, whose bearing is known.
+                        bearings[j] = prev_index[j] < 0 && !refined && !cur_feature_bearing_.empty()
+                                          ? cur_feature_bearing_[j]
+                                          : bearingOf(px[j]);
+                        if (bearings[j].isZero() && prev_index[j] >= 0) {
+                          // The flow pushed it off the model's domain.
+                          px[j] = cur_.pixel(j, refined);
+                          bearings[j] = bearingOf(px[j]);
+                          prev_index[j] = -1;
+                        }
+                      }
+                    });
   clock.lap(&wall.track_ms, &cpu.track_ms);
 
   // Relative pose on the bucketed matches.
@@ -243,6 +279,7 @@ FrontendResult Frontend::process(Timestamp t_ns, const cv::Mat& grey,
   for (const int k : used_matches) fm.track_ids.push_back(ids[matches[k].cur]);
   result.observations = tracker_.currentObservations();
   std::swap(prev_, cur_);
+  std::swap(prev_feature_bearing_, cur_feature_bearing_);
   if (options_.track_refine.enabled) grey.copyTo(prev_grey_);
   prev_px_ = std::move(px);
   prev_bearing_ = std::move(bearings);

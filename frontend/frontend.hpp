@@ -98,6 +98,7 @@ class Frontend {
 
  private:
   Vec3 bearingOf(const Vec2& px) const;
+  void featureBearings(const FeatureFrame& frame, std::vector<Vec3>* bearings) const;
   void predict(const Mat3& R_cur_prev, MatchPrediction* prediction) const;
 
   camera::Camera camera_;
@@ -109,6 +110,9 @@ class Frontend {
   RelativePoseEstimator relative_pose_;
   TrackStepRefiner step_refiner_;
   FeatureFrame prev_, cur_;
+  // Bearing of each feature's detected pixel (FeatureFrame::pixel(i)), looked up once per frame
+  // when a rotation prior needs them (empty otherwise).
+  std::vector<Vec3> prev_feature_bearing_, cur_feature_bearing_;
   bool has_prev_ = false;
   std::int64_t frame_index_ = -1;
   std::vector<Vec2> prev_px_;       // observation pixel of each previous feature
