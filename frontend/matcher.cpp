@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <limits>
 #include <numeric>
 
@@ -264,6 +265,34 @@ void Matcher::selectQueries(const FeatureFrame& prev, const std::vector<int>* pr
   }
 }
 
+void Matcher::circleSearches(std::size_t n,
+                             const std::function<int(std::size_t, std::uint32_t*)>& forward_search,
+                             std::size_t n_back, const std::function<int(int)>& back_search,
+                             std::vector<Searched>* forward, std::vector<int>* back) {
+  forward->resize(n);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, kSearchGrain),
+                    [&](const tbb::blocked_range<std::size_t>& range) {
+                      for (std::size_t i = range.begin(); i != range.end(); ++i) {
+                        Searched& f = (*forward)[i];
+                        f.cost = 0;
+                        f.index = forward_search(i, &f.cost);
+                      }
+                    });
+  back->assign(n_back, -2);  // -2: not searched
+  back_queries_.clear();
+  for (const Searched& f : *forward) {
+    if (f.index >= 0 && (*back)[f.index] == -2) {
+      (*back)[f.index] = -1;
+      back_queries_.push_back(f.index);
+    }
+  }
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, back_queries_.size(), kSearchGrain),
+                    [&](const tbb::blocked_range<std::size_t>& range) {
+                      for (std::size_t i = range.begin(); i != range.end(); ++i)
+                        (*back)[back_queries_[i]] = back_search(back_queries_[i]);
+                    });
+}
+
 std::vector<Match> Matcher::match(const FeatureFrame& prev, const FeatureFrame& cur,
                                   const MatchPrediction* prediction, MatchStats* stats,
                                   const std::vector<int>* prev_priority) {
@@ -285,39 +314,22 @@ std::vector<Match> Matcher::match(const FeatureFrame& prev, const FeatureFrame& 
     const kernels::SearchGrid cur_sparse_grid = searchGrid(cur_sparse_);
     std::vector<std::pair<int, int>>& sparse = sparse_pairs_;
     sparse.clear();
-    // As the dense pass below: the searches over the cores, then put together in order.
-    std::vector<Searched>& back = sparse_back_;
-    back.resize(cur_sparse_index_.size());
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, cur_sparse_index_.size(), kSearchGrain),
-                      [&](const tbb::blocked_range<std::size_t>& range) {
-                        for (std::size_t i = range.begin(); i != range.end(); ++i) {
-                          const int q = cur_sparse_index_[i];
-                          back[i].cost = 0;
-                          back[i].index =
-                              search(cur, q, prev_sparse_grid,
-                                     window(cur, q, prev, pred_prev_of_cur, cur_valid, nullptr),
-                                     &back[i].cost);
-                        }
-                      });
-    sparse_reverse_.assign(prev_sparse_.size(), -2);  // previous -> current, -2: not searched
-    reverse_queries_.clear();
-    for (const Searched& b : back) {
-      if (b.index >= 0 && sparse_reverse_[b.index] == -2) {
-        sparse_reverse_[b.index] = -1;
-        reverse_queries_.push_back(b.index);
-      }
-    }
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, reverse_queries_.size(), kSearchGrain),
-                      [&](const tbb::blocked_range<std::size_t>& range) {
-                        for (std::size_t i = range.begin(); i != range.end(); ++i) {
-                          const int p_sub = reverse_queries_[i];
-                          const int p = prev_sparse_index_[p_sub];
-                          std::uint32_t cost = 0;
-                          sparse_reverse_[p_sub] = search(
-                              prev, p, cur_sparse_grid,
-                              window(prev, p, cur, pred_cur_of_prev, prev_valid, nullptr), &cost);
-                        }
-                      });
+    std::vector<Searched>& back = sparse_back_;  // current -> previous sparse feature
+    circleSearches(
+        cur_sparse_index_.size(),
+        [&](std::size_t i, std::uint32_t* cost) {
+          const int q = cur_sparse_index_[i];
+          return search(cur, q, prev_sparse_grid,
+                        window(cur, q, prev, pred_prev_of_cur, cur_valid, nullptr), cost);
+        },
+        prev_sparse_.size(),
+        [&](int p_sub) {
+          const int p = prev_sparse_index_[p_sub];
+          std::uint32_t cost = 0;
+          return search(prev, p, cur_sparse_grid,
+                        window(prev, p, cur, pred_cur_of_prev, prev_valid, nullptr), &cost);
+        },
+        &back, &sparse_reverse_);
     for (std::size_t i = 0; i < cur_sparse_index_.size(); ++i) {
       const int q = cur_sparse_index_[i], p_sub = back[i].index;
       if (p_sub < 0) continue;
@@ -379,41 +391,24 @@ std::vector<Match> Matcher::match(const FeatureFrame& prev, const FeatureFrame& 
   const kernels::SearchGrid prev_grid = searchGrid(prev), cur_grid = searchGrid(cur);
   // A current feature matches at most one previous one (the result of its reverse search): the
   // matches go to slot_of_cur_ and come out ordered by current index.
-  // The searches are independent (const, no shared scratch), so they are spread over the cores:
-  // first every query's forward search, then the reverse search of every current feature a query
-  // found (once each), then the matches are put together in query order as one thread would.
-  forward_.resize(queries_.size());
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, queries_.size(), kSearchGrain),
-                    [&](const tbb::blocked_range<std::size_t>& range) {
-                      for (std::size_t i = range.begin(); i != range.end(); ++i) {
-                        const int p = queries_[i];
-                        Searched& f = forward_[i];
-                        f.cost = 0;
-                        f.index = search(prev, p, cur_grid,
-                                         window(prev, p, cur, pred_cur_of_prev, prev_valid,
-                                                use_prior ? &prior_from_prev_ : nullptr),
-                                         &f.cost);
-                      }
-                    });
-  reverse_.assign(cur.size(), -2);  // -2: not searched
-  reverse_queries_.clear();
-  for (const Searched& f : forward_) {
-    if (f.index >= 0 && reverse_[f.index] == -2) {
-      reverse_[f.index] = -1;
-      reverse_queries_.push_back(f.index);
-    }
-  }
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, reverse_queries_.size(), kSearchGrain),
-                    [&](const tbb::blocked_range<std::size_t>& range) {
-                      for (std::size_t i = range.begin(); i != range.end(); ++i) {
-                        const int q = reverse_queries_[i];
-                        std::uint32_t back_cost = 0;
-                        reverse_[q] = search(cur, q, prev_grid,
-                                             window(cur, q, prev, pred_prev_of_cur, cur_valid,
-                                                    use_prior ? &prior_from_cur_ : nullptr),
-                                             &back_cost);
-                      }
-                    });
+  circleSearches(
+      queries_.size(),
+      [&](std::size_t i, std::uint32_t* cost) {
+        const int p = queries_[i];
+        return search(prev, p, cur_grid,
+                      window(prev, p, cur, pred_cur_of_prev, prev_valid,
+                             use_prior ? &prior_from_prev_ : nullptr),
+                      cost);
+      },
+      cur.size(),
+      [&](int q) {
+        std::uint32_t back_cost = 0;
+        return search(cur, q, prev_grid,
+                      window(cur, q, prev, pred_prev_of_cur, cur_valid,
+                             use_prior ? &prior_from_cur_ : nullptr),
+                      &back_cost);
+      },
+      &forward_, &reverse_);
   match_buffer_.clear();
   slot_of_cur_.assign(cur.size(), -1);
   const bool response = options_.subpixel == SubpixelMode::kResponse;

@@ -4,6 +4,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <optional>
 #include <string>
 #include <vector>
@@ -121,9 +122,17 @@ class Matcher {
     int index = -1;  // the match found (-1: none)
     std::uint32_t cost = 0;
   };
-  std::vector<Searched> forward_;     // dense pass: each query's prev -> cur search
-  std::vector<int> reverse_;          // cur -> prev search of each current feature
-  std::vector<int> reverse_queries_;  // the features searched back from (dense, then sparse pass)
+  // The searches of a circle check, spread over the cores (each is independent: const, no shared
+  // scratch): (*forward)[i] = forward_search(i) for i < n, then (*back)[k] = back_search(k) once
+  // for every k some forward search found, -2 for the others. The same as one thread searching in
+  // order with a memo of the back searches.
+  void circleSearches(std::size_t n,
+                      const std::function<int(std::size_t, std::uint32_t*)>& forward_search,
+                      std::size_t n_back, const std::function<int(int)>& back_search,
+                      std::vector<Searched>* forward, std::vector<int>* back);
+  std::vector<Searched> forward_;             // dense pass: each query's prev -> cur search
+  std::vector<int> reverse_;                  // cur -> prev search of each current feature
+  std::vector<int> back_queries_;             // scratch of circleSearches
   std::vector<std::optional<Vec2>> refined_;  // refineCost of each circle match
   std::vector<Searched> sparse_back_;         // sparse pass: each sparse cur -> prev search
   std::vector<int> sparse_reverse_;  // sparse pass: prev -> cur search of each (-2: not searched)
