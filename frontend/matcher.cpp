@@ -16,7 +16,7 @@ namespace ovo::frontend {
 namespace {
 
 constexpr std::uint32_t kNoCost = std::numeric_limits<std::uint32_t>::max();
-// Searches per task when the dense pass is spread over the cores (a search takes ~0.5 us).
+// Searches (or cost refinements) per task where the matcher spreads them over the cores.
 constexpr std::size_t kSearchGrain = 256;
 
 Vec2 toGrid(const FeatureFrame& frame, const Vec2& px_full) {
