@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <condition_variable>
@@ -190,20 +191,32 @@ TEST_P(OfflinePipeline, GivesThePosesOfTheStagesInSequence) {
 
 INSTANTIATE_TEST_SUITE_P(Estimators, OfflinePipeline, ::testing::Values("kf", "window"));
 
-// Counts, at each track(k), how many update() calls are done; update() is slow (a keyframe's
-// solve).
+// Counts, at each track(k), how many update() calls are done. update(j) is slow (a keyframe's
+// solve): it holds on until the frontend has tracked every frame the runner lets it track meanwhile
+// (k <= j + lead), or 5 s have passed (once). So whether the frontend reaches the lead does not
+// depend on how fast the machine decodes the images; a runner that held it back would time out
+// here.
 class SlowUpdateEstimator final : public estimator::Estimator {
  public:
+  explicit SlowUpdateEstimator(int frames) : frames_(frames) {}
   std::string name() const override { return "slow-update"; }
   std::unique_ptr<estimator::FrontendFrame> track(Timestamp t_ns, const cv::Mat&) override {
-    const int k = tracked_++;
+    const int k = tracked_.load();
     max_ahead_ = std::max(max_ahead_, k - updates_done_.load());
+    ++tracked_;
     auto frame = std::make_unique<estimator::FrontendFrame>();
     frame->t_ns = t_ns;
     return frame;
   }
   estimator::FrameEstimate update(std::unique_ptr<estimator::FrontendFrame> frame) override {
-    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    const int j = updates_done_.load();
+    const int reachable = std::min(frames_, j + estimator::kFrontendLeadFrames + 1);
+    // After one time-out the test has failed: no more waiting.
+    const auto deadline =
+        std::chrono::steady_clock::now() + std::chrono::seconds(timeouts_ == 0 ? 5 : 0);
+    while (tracked_.load() < reachable && std::chrono::steady_clock::now() < deadline)
+      std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    if (tracked_.load() < reachable) ++timeouts_;
     estimator::FrameEstimate e;
     e.t_ns = frame->t_ns;
     ++updates_done_;
@@ -214,22 +227,26 @@ class SlowUpdateEstimator final : public estimator::Estimator {
   Trajectory trajectory() const override { return {}; }
   estimator::EstimatorStats stats() const override { return {}; }
   int maxAhead() const { return max_ahead_; }
+  int timeouts() const { return timeouts_; }
 
  private:
-  int tracked_ = 0, max_ahead_ = 0;  // frontend thread only
-  std::atomic<int> updates_done_{0};
+  const int frames_;
+  int max_ahead_ = 0;  // frontend thread only
+  int timeouts_ = 0;   // estimator thread only
+  std::atomic<int> tracked_{0}, updates_done_{0};
 };
 
 TEST(OfflinePipeline, TheFrontendRunsAheadThroughASlowUpdateByAtMostTheLead) {
-  // track(k) may start once update(k - 1 - lead) is done: k - updates done <= lead. With a slow
-  // update the frontend reaches that bound (it goes on meanwhile) and never passes it (the gyro
-  // prior's bias would then depend on the threads' timing).
+  // track(k) may start once update(k - 1 - lead) is done: k - updates done <= lead. While an
+  // update is slow the frontend reaches that bound (it goes on meanwhile) and never passes it (the
+  // gyro prior's bias would then depend on the threads' timing).
   if (!fs::exists(test::ovoBinaryPath())) GTEST_SKIP() << "ovo not built";
   const io::Dataset data = firstImages(io::loadDataset(simulatedRow()), 40);
-  SlowUpdateEstimator est;
+  SlowUpdateEstimator est(40);
   const OfflineRunResult result = runOffline(data, est);
   EXPECT_EQ(result.frames.size(), 40u);
   EXPECT_EQ(est.maxAhead(), estimator::kFrontendLeadFrames);
+  EXPECT_EQ(est.timeouts(), 0) << "the runner held the frontend back from the lead";
 }
 
 TEST(OfflinePipelineErrors, ACorruptImageStopsBothStagesAndNamesTheFile) {
