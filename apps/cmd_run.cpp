@@ -171,6 +171,8 @@ int runRun(const RunArgs& args) {
     std::filesystem::create_directories(tmp);
     io::writeTum(tmp / "trajectory.txt", trajectory);
     io::writeTum(tmp / "keyframes.txt", est->keyframes());
+    const auto bias_history = est->biasHistory();
+    if (!bias_history.empty()) io::writeGyroBiasCsv(tmp / "gyro_bias.csv", bias_history);
     writeText(tmp / "metrics.json", metrics.dump(2) + "\n");
     writeText(tmp / "config.yaml", config.dump() + "\n");
     ReportInputs report;
@@ -181,7 +183,7 @@ int runRun(const RunArgs& args) {
                                 : "offline, two-stage pipeline";
     report.estimate = trajectory;
     report.groundtruth = groundtruth;
-    report.bias_estimate = est->biasHistory();
+    report.bias_estimate = bias_history;
     report.bias_truth = data.true_gyro_bias;
     for (std::size_t i = 0; i < frames.size(); ++i)
       report.timing.push_back({frames[i].t_ns, frames[i].frontend_ms, frames[i].estimator_ms,
@@ -205,8 +207,9 @@ CommandRunner setupRun(CLI::App& sub) {
   sub.add_option("--config", args->config, "Estimator configuration (YAML)");
   sub.add_option("--estimator", args->estimator, "window (default), kf or vo")
       ->check(CLI::IsMember({"window", "kf", "vo"}));
-  sub.add_option("--out", args->out,
-                 "Output folder (trajectory.txt, keyframes.txt, metrics.json, report.html)");
+  sub.add_option(
+      "--out", args->out,
+      "Output folder (trajectory.txt, keyframes.txt, gyro_bias.csv, metrics.json, report.html)");
   sub.add_option(
       "--gt", args->gt,
       "Ground truth trajectory (TUM, KITTI with or without time, EuRoC csv); on a KITTI folder "

@@ -142,10 +142,7 @@ void DatasetWriter::writeRig(const RigInfo& rig) {
 
 void DatasetWriter::writeTrueGyroBias(const std::vector<std::pair<Timestamp, Vec3>>& bias) {
   fs::create_directories(staging_ / "sim");
-  TextFile f(staging_ / "sim" / "truth_bias.csv");
-  f.print("#timestamp [ns],b_x [rad s^-1],b_y [rad s^-1],b_z [rad s^-1]\n");
-  for (const auto& [t, b] : bias) f.print("{},{},{},{}\n", t, b.x(), b.y(), b.z());
-  f.close();
+  writeGyroBiasCsv(staging_ / "sim" / "truth_bias.csv", bias);
 }
 
 void DatasetWriter::writeText(const fs::path& relative, const std::string& text) {

@@ -197,4 +197,14 @@ void writeKitti(const std::filesystem::path& file, const Trajectory& trajectory,
   writeFileAtomically(file, fmt::to_string(out));
 }
 
+void writeGyroBiasCsv(const std::filesystem::path& file,
+                      const std::vector<std::pair<Timestamp, Vec3>>& bias) {
+  fmt::memory_buffer out;
+  fmt::format_to(std::back_inserter(out),
+                 "#timestamp [ns],b_x [rad s^-1],b_y [rad s^-1],b_z [rad s^-1]\n");
+  for (const auto& [t, b] : bias)
+    fmt::format_to(std::back_inserter(out), "{},{},{},{}\n", t, b.x(), b.y(), b.z());
+  writeFileAtomically(file, fmt::to_string(out));
+}
+
 }  // namespace ovo::io

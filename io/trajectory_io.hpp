@@ -1,9 +1,12 @@
 // Trajectory files: TUM (`t[s] tx ty tz qx qy qz qw`), KITTI (3x4 row-major, optional leading
-// time) and the EuRoC ground-truth csv. Readers throw ovo::Error naming the file and line.
+// time) and the EuRoC ground-truth csv; and the gyro-bias history csv written beside them.
+// Readers throw ovo::Error naming the file and line.
 #pragma once
 
 #include <filesystem>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "common/types.hpp"
 
@@ -44,5 +47,9 @@ void writeTum(const std::filesystem::path& file, const Trajectory& trajectory);
 /// KITTI: 12 numbers a row; with_time puts the time in seconds first.
 void writeKitti(const std::filesystem::path& file, const Trajectory& trajectory,
                 bool with_time = false);
+/// Gyro bias over time: `#timestamp [ns],b_x [rad s^-1],b_y [rad s^-1],b_z [rad s^-1]`, one row a
+/// time (the simulator's sim/truth_bias.csv and `ovo run`'s gyro_bias.csv).
+void writeGyroBiasCsv(const std::filesystem::path& file,
+                      const std::vector<std::pair<Timestamp, Vec3>>& bias);
 
 }  // namespace ovo::io
