@@ -53,6 +53,7 @@ struct KfOptions {
   double vo_gate_chi2 = 25.0;            // reject VO updates with r^T S^-1 r above this; 0: off
   double max_gyro_gap_s = 0.05;          // longer without gyro: predict without it, s
   double gap_rotation_noise = 1.0;  // sigma_gap, rotation random walk without gyro, rad/sqrt(s)
+  bool operator==(const KfOptions&) const = default;
 };
 
 KfOptions readKfOptions(const Config& config);

@@ -43,6 +43,7 @@ struct LidarScaleOptions {
   double min_parallax_deg = 1.0;       // along tracks: angle between the old and current ray, deg
   double edge_relative = 0.05;  // beams whose neighbours' ranges differ by more than this fraction
                                 // (depth edges: leaf in front of a gap) are skipped; 0: off
+  bool operator==(const LidarScaleOptions&) const = default;
 };
 
 LidarScaleOptions readLidarScaleOptions(const Config& config);

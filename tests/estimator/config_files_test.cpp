@@ -5,6 +5,7 @@
 
 #include "common/config.hpp"
 #include "estimator/ground_plane.hpp"
+#include "estimator/kf_estimator.hpp"
 #include "estimator/vo_chain.hpp"
 #include "estimator/vo_estimator.hpp"
 #include "estimator/window_options.hpp"
@@ -13,6 +14,9 @@
 
 namespace ovo::estimator {
 namespace {
+
+// A rig with SensorSetup's default noise figures (the camera does not matter here).
+SensorSetup defaultRig() { return {camera::PinholeRadtanCamera(300, 300, 320, 240, 640, 480)}; }
 
 TEST(ConfigFiles, FrontendYamlHoldsTheBuiltInDefaults) {
   const Config cfg = Config::load(test::sourcePath("configs/frontend.yaml"));
@@ -35,6 +39,13 @@ TEST(ConfigFiles, WindowYamlHoldsTheBuiltInDefaults) {
   EXPECT_NO_THROW(cfg.checkAllUsed());
 }
 
+TEST(ConfigFiles, KfYamlHoldsTheBuiltInDefaults) {
+  // The filter's gyro noise figures come from the rig, not from kf.yaml.
+  const Config cfg = Config::load(test::sourcePath("configs/estimator/kf.yaml"));
+  EXPECT_TRUE(readKfEstimatorOptions(cfg, defaultRig()) == KfEstimatorOptions{});
+  EXPECT_NO_THROW(cfg.checkAllUsed());
+}
+
 TEST(ConfigFiles, AChangedValueIsSeen) {
   // The comparison is not vacuous: one key off its default differs.
   Config cfg = Config::load(test::sourcePath("configs/frontend.yaml"));
@@ -43,6 +54,12 @@ TEST(ConfigFiles, AChangedValueIsSeen) {
   Config window = Config::load(test::sourcePath("configs/estimator/window.yaml"));
   window.applyOverride("window.ground_scale_gate_no_lidar=0.4");
   EXPECT_FALSE(readWindowOptions(window) == WindowOptions{});
+  for (const char* key :
+       {"kf.vo_sigma0_rad=2e-4", "kf.lidar_scale.edge_relative=0.1", "kf.scale_walk=0.003"}) {
+    Config kf = Config::load(test::sourcePath("configs/estimator/kf.yaml"));
+    kf.applyOverride(key);
+    EXPECT_FALSE(readKfEstimatorOptions(kf, defaultRig()) == KfEstimatorOptions{}) << key;
+  }
 }
 
 }  // namespace
