@@ -69,7 +69,8 @@ struct MatchStats {
   int queries = 0;           // previous-frame features searched for in the dense pass
   int not_minimum = 0;       // dropped: no (well-defined) SSD minimum within max_refine_steps
   int delaunay_removed = 0;  // dense matches removed by the Delaunay filter
-  // Thread CPU time (ms) of the stages.
+  // Wall time (ms) of the stages: the searches and the refinement run over the cores, so the
+  // calling thread's CPU time would leave out the other threads' share.
   double sparse_ms = 0.0;    // sparse pass, including its Delaunay filter
   double dense_ms = 0.0;     // query selection, dense search and circle check
   double delaunay_ms = 0.0;  // Delaunay filter of the refined dense matches

@@ -14,6 +14,13 @@ inline double threadCpuMs() {
   return 1e3 * static_cast<double>(ts.tv_sec) + 1e-6 * static_cast<double>(ts.tv_nsec);
 }
 
+/// Wall time (milliseconds, steady clock, arbitrary origin).
+inline double wallMs() {
+  return std::chrono::duration<double, std::milli>(
+             std::chrono::steady_clock::now().time_since_epoch())
+      .count();
+}
+
 /// Wall and thread-CPU stopwatch (milliseconds since construction or the last lap()).
 class StageClock {
  public:
