@@ -314,7 +314,7 @@ std::vector<Match> Matcher::match(const FeatureFrame& prev, const FeatureFrame& 
     const kernels::SearchGrid cur_sparse_grid = searchGrid(cur_sparse_);
     std::vector<std::pair<int, int>>& sparse = sparse_pairs_;
     sparse.clear();
-    std::vector<Searched>& back = sparse_back_;  // current -> previous sparse feature
+    std::vector<Searched>& found = sparse_found_;  // each sparse current -> previous search
     circleSearches(
         cur_sparse_index_.size(),
         [&](std::size_t i, std::uint32_t* cost) {
@@ -329,9 +329,9 @@ std::vector<Match> Matcher::match(const FeatureFrame& prev, const FeatureFrame& 
           return search(prev, p, cur_sparse_grid,
                         window(prev, p, cur, pred_cur_of_prev, prev_valid, nullptr), &cost);
         },
-        &back, &sparse_reverse_);
+        &found, &sparse_reverse_);
     for (std::size_t i = 0; i < cur_sparse_index_.size(); ++i) {
-      const int q = cur_sparse_index_[i], p_sub = back[i].index;
+      const int q = cur_sparse_index_[i], p_sub = found[i].index;
       if (p_sub < 0) continue;
       const int q2_sub = sparse_reverse_[p_sub];
       if (q2_sub >= 0 && cur_sparse_index_[q2_sub] == q)

@@ -135,7 +135,7 @@ class Matcher {
   std::vector<int> reverse_;                  // cur -> prev search of each current feature
   std::vector<int> back_queries_;             // scratch of circleSearches
   std::vector<std::optional<Vec2>> refined_;  // refineCost of each circle match
-  std::vector<Searched> sparse_back_;         // sparse pass: each sparse cur -> prev search
+  std::vector<Searched> sparse_found_;        // sparse pass: each sparse cur -> prev search
   std::vector<int> sparse_reverse_;  // sparse pass: prev -> cur search of each (-2: not searched)
   std::vector<int> slot_of_cur_;     // dense match of each current feature (-1: none)
   std::vector<Match> match_buffer_;  // dense matches in query order

@@ -24,19 +24,19 @@ inline double wallMs() {
 /// Wall and thread-CPU stopwatch (milliseconds since construction or the last lap()).
 class StageClock {
  public:
-  StageClock() : wall_(std::chrono::steady_clock::now()), cpu_(threadCpuMs()) {}
+  StageClock() : wall_(wallMs()), cpu_(threadCpuMs()) {}
   /// Adds the time since the previous lap to *wall_ms and *cpu_ms and restarts.
   void lap(double* wall_ms, double* cpu_ms) {
-    const auto wall = std::chrono::steady_clock::now();
+    const double wall = wallMs();
     const double cpu = threadCpuMs();
-    *wall_ms += std::chrono::duration<double, std::milli>(wall - wall_).count();
+    *wall_ms += wall - wall_;
     *cpu_ms += cpu - cpu_;
     wall_ = wall;
     cpu_ = cpu;
   }
 
  private:
-  std::chrono::steady_clock::time_point wall_;
+  double wall_;
   double cpu_;
 };
 

@@ -19,11 +19,6 @@ namespace ovo::io {
 namespace {
 
 // Sensor streams must be strictly ordered in time.
-void checkIncreasing(const TextReader& in, Timestamp previous, Timestamp t_ns, bool first) {
-  if (!first && t_ns <= previous)
-    in.fail("time stamps must increase: {} ns after {} ns", t_ns, previous);
-}
-
 // 1 / median time step, or nullopt with fewer than two stamps.
 template <typename T, typename Stamp>
 std::optional<double> rateHz(const std::vector<T>& items, Stamp stamp) {
@@ -132,21 +127,6 @@ std::vector<LidarScan> readLidar(const fs::path& csv) {
   return scans;
 }
 
-std::vector<std::pair<Timestamp, Vec3>> readTruthBias(const fs::path& csv) {
-  TextReader in(csv, "the true gyro bias: t[ns], b_x, b_y, b_z [rad/s]");
-  std::vector<std::pair<Timestamp, Vec3>> bias;
-  std::vector<std::string_view> tok;
-  while (in.next(tok)) {
-    if (tok.size() != 4)
-      in.fail("expected 4 columns (t[ns], b_x, b_y, b_z [rad/s]), got {}", tok.size());
-    const Timestamp t = in.integer(tok[0], "the time stamp [ns]");
-    checkIncreasing(in, bias.empty() ? 0 : bias.back().first, t, bias.empty());
-    bias.emplace_back(
-        t, Vec3(in.number(tok[1], "b_x"), in.number(tok[2], "b_y"), in.number(tok[3], "b_z")));
-  }
-  return bias;
-}
-
 // Ground truth of the EuRoC/ovo layout: root/groundtruth.txt, else mav0/groundtruth.txt, else
 // state_groundtruth_estimate0/data.csv, else the one TUM .txt in that folder.
 std::optional<Trajectory> readOvoGroundtruth(const fs::path& root, const fs::path& base) {
@@ -198,7 +178,7 @@ Dataset loadOvo(const fs::path& root, const fs::path& base) {
   if (fs::exists(base / "lidar0" / "data.csv")) ds.scans = readLidar(base / "lidar0" / "data.csv");
   if (auto gt = readOvoGroundtruth(root, base)) ds.groundtruth = std::move(*gt);
   if (fs::exists(root / "sim" / "truth_bias.csv"))
-    ds.true_gyro_bias = readTruthBias(root / "sim" / "truth_bias.csv");
+    ds.true_gyro_bias = readGyroBiasCsv(root / "sim" / "truth_bias.csv");
 
   if (!ds.rig.has_rig_file) {
     if (auto r = rateHz(ds.images, [](const ImageEntry& e) { return e.t_ns; }))

@@ -145,4 +145,9 @@ std::string formatSeconds(Timestamp t_ns) {
   return fmt::format("{}{}.{:09d}", negative ? "-" : "", a / 1000000000u, a % 1000000000u);
 }
 
+void checkIncreasing(const TextReader& in, Timestamp previous, Timestamp t_ns, bool first) {
+  if (!first && t_ns <= previous)
+    in.fail("time stamps must increase: {} ns after {} ns", t_ns, previous);
+}
+
 }  // namespace ovo::io

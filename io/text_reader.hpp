@@ -49,6 +49,10 @@ class TextReader {
   long line_number_ = 0;
 };
 
+/// Throws (naming in's file and line) unless t_ns comes after previous; the first stamp of a file
+/// (first) may be anything.
+void checkIncreasing(const TextReader& in, Timestamp previous, Timestamp t_ns, bool first);
+
 /// Writes `content` to a temporary file beside `file` and renames it over `file`, so that a
 /// reader never sees a half-written file. Throws ovo::Error naming the file on failure.
 void writeFileAtomically(const std::filesystem::path& file, const std::string& content);

@@ -207,4 +207,19 @@ void writeGyroBiasCsv(const std::filesystem::path& file,
   writeFileAtomically(file, fmt::to_string(out));
 }
 
+std::vector<std::pair<Timestamp, Vec3>> readGyroBiasCsv(const std::filesystem::path& csv) {
+  TextReader in(csv, "a gyro bias over time: t[ns], b_x, b_y, b_z [rad/s]");
+  std::vector<std::pair<Timestamp, Vec3>> bias;
+  std::vector<std::string_view> tok;
+  while (in.next(tok)) {
+    if (tok.size() != 4)
+      in.fail("expected 4 columns (t[ns], b_x, b_y, b_z [rad/s]), got {}", tok.size());
+    const Timestamp t = in.integer(tok[0], "the time stamp [ns]");
+    checkIncreasing(in, bias.empty() ? 0 : bias.back().first, t, bias.empty());
+    bias.emplace_back(
+        t, Vec3(in.number(tok[1], "b_x"), in.number(tok[2], "b_y"), in.number(tok[3], "b_z")));
+  }
+  return bias;
+}
+
 }  // namespace ovo::io

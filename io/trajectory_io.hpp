@@ -51,5 +51,7 @@ void writeKitti(const std::filesystem::path& file, const Trajectory& trajectory,
 /// time (the simulator's sim/truth_bias.csv and `ovo run`'s gyro_bias.csv).
 void writeGyroBiasCsv(const std::filesystem::path& file,
                       const std::vector<std::pair<Timestamp, Vec3>>& bias);
+/// Reads that file back: 4 columns a row, strictly increasing times.
+std::vector<std::pair<Timestamp, Vec3>> readGyroBiasCsv(const std::filesystem::path& file);
 
 }  // namespace ovo::io

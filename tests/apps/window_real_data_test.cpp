@@ -3,11 +3,11 @@
 // sequence (a real gyro, no LiDAR, no camera height), with the gyro bias it writes.
 #include <gtest/gtest.h>
 
-#include <cstdio>
 #include <fstream>
 #include <nlohmann/json.hpp>
 
 #include "io/dataset.hpp"
+#include "io/trajectory_io.hpp"
 #include "tests/test_support.hpp"
 
 namespace ovo::test {
@@ -76,13 +76,7 @@ TEST(EurocWindow, ARealGyroWithALargeBiasHoldsTheYawWhileTheMavHardlyMoves) {
   std::string line;
   ASSERT_TRUE(std::getline(csv, line));
   EXPECT_EQ(line, "#timestamp [ns],b_x [rad s^-1],b_y [rad s^-1],b_z [rad s^-1]");
-  std::vector<std::pair<Timestamp, Vec3>> bias;
-  while (std::getline(csv, line)) {
-    long long t = 0;
-    Vec3 b;
-    ASSERT_EQ(std::sscanf(line.c_str(), "%lld,%lf,%lf,%lf", &t, &b.x(), &b.y(), &b.z()), 4) << line;
-    bias.emplace_back(static_cast<Timestamp>(t), b);
-  }
+  const auto bias = io::readGyroBiasCsv(out / "gyro_bias.csv");  // throws on a malformed row
   ASSERT_EQ(bias.size(), data.images.size());
   for (std::size_t i = 0; i < bias.size(); ++i) EXPECT_EQ(bias[i].first, data.images[i].t_ns);
   Vec3 mean_rate = Vec3::Zero();
