@@ -85,6 +85,10 @@ class WindowCore {
   std::optional<factors::GyroPreintegration> preintegrate(Timestamp t0, Timestamp t1,
                                                           const Vec3& bias) const;
   const LidarScan* scanAt(Timestamp t_ns) const;
+  /// Whether the frame after the one at t_ns (one frame period on) is expected to come with a
+  /// scan (within lidar_scan_time_tol_s): the first buffered scan after t_ns, or else the last
+  /// scan plus the last scan period, falls on it.
+  bool scanExpectedAfter(Timestamp t_ns) const;
   /// A frame a two-view reference may start at: with the LiDAR, one with a scan (both views then
   /// give range ratios for the scale).
   bool canReference(Timestamp t_ns) const { return !use_lidar_ || scanAt(t_ns) != nullptr; }
@@ -132,6 +136,9 @@ class WindowCore {
   void labelGround();
   void marginalize();
   void resetWindow();
+  /// Keyframe decision (DESIGN section 7): rotation-compensated parallax, track loss, interval.
+  /// With the LiDAR, frames with a scan are preferred: they need less parallax, and a frame
+  /// without one whose successor is expected to bring a scan tolerates more track loss.
   bool isKeyframe(const VisualFrame& frame, const SE3& T_W_B, bool has_scan) const;
   void note(const std::string& text);
   void recordFrame(const FrameEstimate& e, int ref_kf);

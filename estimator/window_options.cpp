@@ -13,6 +13,8 @@ WindowOptions readWindowOptions(const Config& c) {
   o.kf_parallax_scan_fraction =
       c.getInRange(p + "kf_parallax_scan_fraction", o.kf_parallax_scan_fraction, 0.0, 1.0);
   o.kf_track_fraction = c.getInRange(p + "kf_track_fraction", o.kf_track_fraction, 0.0, 1.0);
+  o.kf_track_fraction_between_scans = c.getInRange(p + "kf_track_fraction_between_scans",
+                                                   o.kf_track_fraction_between_scans, 0.0, 1.0);
   o.kf_max_interval_s = c.getInRange(p + "kf_max_interval_s", o.kf_max_interval_s, 0.01, 1e3);
   o.min_landmark_observations =
       c.getIntInRange(p + "min_landmark_observations", o.min_landmark_observations, 3, 10000);

@@ -20,13 +20,15 @@ struct WindowOptions {
   double kf_parallax_deg = 5.0;  // rotation-compensated median parallax to the last kf, deg
   double kf_parallax_scan_fraction = 0.6;  // a frame with a scan needs this fraction of it
   double kf_track_fraction = 0.6;          // new kf when fewer of the last kf's tracks are alive
-  double kf_max_interval_s = 1.0;          // new kf at the latest after this time (when moving), s
-  int min_landmark_observations = 12;      // fewer landmarks seen in a frame: tracking lost
-  double min_inlier_fraction = 0.15;       // ... or fewer of them fit the frame's pose: lost
-  int max_features = 500;                  // tracks a keyframe keeps (spread over the image)
-  int max_lidar_features = 60;             // ... of which tracks picked next to LiDAR beams
-  double feature_cell_px = 40.0;           // spreading grid cell, px
-  int features_per_cell = 2;               // tracks per grid cell
+  // ... at a frame without a scan whose successor is expected to bring one:
+  double kf_track_fraction_between_scans = 0.5;
+  double kf_max_interval_s = 1.0;      // new kf at the latest after this time (when moving), s
+  int min_landmark_observations = 12;  // fewer landmarks seen in a frame: tracking lost
+  double min_inlier_fraction = 0.15;   // ... or fewer of them fit the frame's pose: lost
+  int max_features = 500;              // tracks a keyframe keeps (spread over the image)
+  int max_lidar_features = 60;         // ... of which tracks picked next to LiDAR beams
+  double feature_cell_px = 40.0;       // spreading grid cell, px
+  int features_per_cell = 2;           // tracks per grid cell
 
   // Landmarks.
   double landmark_min_parallax_deg = 1.0;  // triangulation angle needed to create a landmark, deg

@@ -11,6 +11,7 @@
 #include <map>
 #include <optional>
 #include <random>
+#include <set>
 #include <string>
 #include <string_view>
 
@@ -352,6 +353,40 @@ TEST(WindowCore, WithoutLidarFallsBackToTheGroundPlaneAndSaysSo) {
   const SE3 T_true = truthRel(seq, seq.frames.size() - 1);
   const double scale = r.trajectory.back().T_W_B.translation().norm() / T_true.translation().norm();
   EXPECT_NEAR(scale, 1.0, 0.15);
+}
+
+// The LiDAR scans every second frame. Keyframes that track loss triggers land on a frame with a
+// scan: one between scans waits for the next frame, which brings one. Without that wait, half of
+// them had no scan (and so no LiDAR range) on the simulated rows, where the canopy's tracks end
+// fast. Here the parallax trigger is off and a tenth of the tracks lost makes a keyframe.
+TEST(WindowCore, KeyframesWaitForTheNextScanWhenTracksRunOut) {
+  SyntheticOptions o;
+  o.duration_s = 8.0;
+  const auto seq = makeSyntheticSequence(o);
+  std::set<Timestamp> scan_times;
+  for (const LidarScan& s : seq.scans) scan_times.insert(s.t_ns);
+  const auto fractionWithScan = [&](const RunResult& r) {
+    int kfs = 0, with_scan = 0;
+    for (const FrameEstimate& e : r.estimates) {
+      if (!e.is_keyframe) continue;
+      ++kfs;
+      with_scan += scan_times.count(e.t_ns) > 0;
+    }
+    return kfs > 0 ? static_cast<double>(with_scan) / kfs : 0.0;
+  };
+  WindowOptions wait;
+  wait.kf_parallax_deg = 90.0;
+  wait.kf_track_fraction = 0.9;
+  wait.kf_track_fraction_between_scans = 0.8;
+  WindowOptions no_wait = wait;
+  no_wait.kf_track_fraction_between_scans = no_wait.kf_track_fraction;
+  const RunResult waiting = run(seq, wait), not_waiting = run(seq, no_wait);
+  expectAllFinite(waiting);
+  std::printf("keyframes on a frame with a scan: %.2f waiting, %.2f not\n",
+              fractionWithScan(waiting), fractionWithScan(not_waiting));
+  EXPECT_GT(waiting.stats.keyframes, 10);
+  EXPECT_GT(fractionWithScan(waiting), 0.9);
+  EXPECT_LT(fractionWithScan(not_waiting), 0.8);
 }
 
 // A rig without a camera height whose LiDAR sees nothing before `seconds` into the sequence:
