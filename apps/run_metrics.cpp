@@ -58,6 +58,8 @@ nlohmann::json computeRunMetrics(const Trajectory& estimate, const Trajectory& g
   m["keyframes"] = stats.keyframes;
   m["lidar_scale_frames"] = stats.lidar_scale_frames;
   m["ground_scale_frames"] = stats.ground_scale_frames;
+  m["lidar_keyframes"] = stats.lidar_keyframes;
+  m["lidar_ranges"] = stats.lidar_ranges;
   m["gyro_gaps"] = stats.gyro_gaps;
   m["tracking_losses"] = stats.tracking_losses;
   m["notes"] = stats.notes;

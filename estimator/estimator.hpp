@@ -85,6 +85,8 @@ struct EstimatorStats {
   int keyframes = 0;
   int lidar_scale_frames = 0;   // frames whose scale came from the LiDAR
   int ground_scale_frames = 0;  // frames that fell back to the ground-plane scale
+  int lidar_keyframes = 0;      // window: keyframes with at least one LiDAR range factor
+  int lidar_ranges = 0;         // window: LiDAR range factors over all keyframes
   int gyro_gaps = 0;
   int tracking_losses = 0;
   std::vector<std::string> notes;  // fallbacks said once ("no gyro: vision-only rotation", ...)

@@ -888,6 +888,7 @@ void WindowCore::marginalize() {
     auto info = marginalizeOldest(map_, model_, gauge_, marginalized);
     map_.rememberPoints(setup_.T_B_C);
     kf_poses_[oldest->id] = oldest->pose();
+    countLidar(*oldest, stats_);
     const int oldest_id = oldest->id;
     if (options_.refine == "full") map_.archive.push_back(std::move(map_.keyframes.front()));
     map_.keyframes.pop_front();
@@ -958,6 +959,7 @@ void WindowCore::resetWindow() {
   map_.rememberPoints(setup_.T_B_C);
   for (auto& kf : map_.keyframes) {
     kf_poses_[kf->id] = kf->pose();
+    countLidar(*kf, stats_);
     if (options_.refine == "full") map_.archive.push_back(std::move(kf));
   }
   map_.keyframes.clear();
@@ -1250,8 +1252,14 @@ Trajectory WindowCore::keyframes() const {
   return out;
 }
 
+void WindowCore::countLidar(const Keyframe& kf, EstimatorStats& stats) {
+  stats.lidar_keyframes += kf.lidar.empty() ? 0 : 1;
+  stats.lidar_ranges += static_cast<int>(kf.lidar.size());
+}
+
 EstimatorStats WindowCore::stats() const {
-  EstimatorStats s = stats_;
+  EstimatorStats s = stats_;  // plus the keyframes still in the window
+  for (const auto& kf : map_.keyframes) countLidar(*kf, s);
   return s;
 }
 

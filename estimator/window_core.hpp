@@ -141,6 +141,8 @@ class WindowCore {
   /// without one whose successor is expected to bring a scan tolerates more track loss.
   bool isKeyframe(const VisualFrame& frame, const SE3& T_W_B, bool has_scan) const;
   void note(const std::string& text);
+  /// Adds a keyframe's LiDAR associations (as they stand when it leaves the window) to stats.
+  static void countLidar(const Keyframe& kf, EstimatorStats& stats);
   void recordFrame(const FrameEstimate& e, int ref_kf);
   void refineAll();
   std::vector<Keyframe*> windowKeyframes();

@@ -58,5 +58,23 @@ TEST(RunMetrics, AStandstillGivesNoDirectionPairs) {
   EXPECT_TRUE(m.contains("rpe_rot_deg_per_frame_median"));
 }
 
+TEST(RunMetrics, TheEstimatorsCountersAreWrittenAsTheyAre) {
+  const Trajectory gt = straightDrive(10, 0.04);
+  estimator::EstimatorStats stats;
+  stats.frames = 10;
+  stats.keyframes = 4;
+  stats.lidar_scale_frames = 7;
+  stats.ground_scale_frames = 2;
+  stats.lidar_keyframes = 3;
+  stats.lidar_ranges = 41;
+  const nlohmann::json m = computeRunMetrics(gt, gt, stats, {}, 0.05);
+  EXPECT_EQ(m["frames"].get<int>(), 10);
+  EXPECT_EQ(m["keyframes"].get<int>(), 4);
+  EXPECT_EQ(m["lidar_scale_frames"].get<int>(), 7);
+  EXPECT_EQ(m["ground_scale_frames"].get<int>(), 2);
+  EXPECT_EQ(m["lidar_keyframes"].get<int>(), 3);
+  EXPECT_EQ(m["lidar_ranges"].get<int>(), 41);
+}
+
 }  // namespace
 }  // namespace ovo::app
