@@ -574,9 +574,10 @@ bool WindowCore::isKeyframe(const VisualFrame& frame, const SE3& T_W_B, bool has
   // camera rate, keyframes triggered by track loss alone would otherwise lock onto the frames
   // between scans (measured on the simulated rows: every keyframe from 15 to 18 s of
   // vineyard_row was one).
-  const double min_alive = !has_scan && scanExpectedAfter(frame.t_ns)
-                               ? options_.kf_track_fraction_between_scans
-                               : options_.kf_track_fraction;
+  const double min_alive =
+      !has_scan && scanExpectedAfter(frame.t_ns)
+          ? std::min(options_.kf_track_fraction_between_scans, options_.kf_track_fraction)
+          : options_.kf_track_fraction;
   return angles.size() < 8 || parallax_deg >= threshold || alive < min_alive ||
          toSeconds(frame.t_ns - last.t_ns) >= options_.kf_max_interval_s;
 }

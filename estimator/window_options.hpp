@@ -20,7 +20,7 @@ struct WindowOptions {
   double kf_parallax_deg = 5.0;  // rotation-compensated median parallax to the last kf, deg
   double kf_parallax_scan_fraction = 0.6;  // a frame with a scan needs this fraction of it
   double kf_track_fraction = 0.6;          // new kf when fewer of the last kf's tracks are alive
-  // ... at a frame without a scan whose successor is expected to bring one:
+  // ... at a frame without a scan whose successor is expected to bring one (at most the above):
   double kf_track_fraction_between_scans = 0.5;
   double kf_max_interval_s = 1.0;      // new kf at the latest after this time (when moving), s
   int min_landmark_observations = 12;  // fewer landmarks seen in a frame: tracking lost
