@@ -401,6 +401,30 @@ TEST(WindowCore, KeyframesWaitForTheNextScanWhenTracksRunOut) {
   EXPECT_GT(withRanges(waiting), withRanges(not_waiting) + 0.2);
 }
 
+// A LiDAR out of step with the camera (every scan half a frame after a frame): no frame has a
+// scan or precedes one, so no frame waits and the keyframes are those without the wait.
+TEST(WindowCore, NoKeyframeWaitsForALidarOutOfStepWithTheCamera) {
+  SyntheticOptions o;
+  o.duration_s = 8.0;
+  auto seq = makeSyntheticSequence(o);
+  for (LidarScan& s : seq.scans) s.t_ns += 25'000'000;
+  WindowOptions wait;
+  wait.kf_parallax_deg = 90.0;
+  wait.kf_track_fraction = 0.9;
+  wait.kf_track_fraction_between_scans = 0.8;
+  WindowOptions no_wait = wait;
+  no_wait.kf_track_fraction_between_scans = no_wait.kf_track_fraction;
+  const RunResult waiting = run(seq, wait), not_waiting = run(seq, no_wait);
+  const auto keyframeTimes = [](const RunResult& r) {
+    std::vector<Timestamp> t;
+    for (const FrameEstimate& e : r.estimates)
+      if (e.is_keyframe) t.push_back(e.t_ns);
+    return t;
+  };
+  EXPECT_GT(waiting.stats.keyframes, 10);
+  EXPECT_EQ(keyframeTimes(waiting), keyframeTimes(not_waiting));
+}
+
 // A rig without a camera height whose LiDAR sees nothing before `seconds` into the sequence:
 // no scale until then.
 void seeNoScaleBefore(SyntheticSequence* seq, double seconds) {
