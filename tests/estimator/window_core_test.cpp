@@ -360,10 +360,20 @@ TEST(WindowCore, WithoutLidarFallsBackToTheGroundPlaneAndSaysSo) {
   EXPECT_NEAR(scale, 1.0, 0.15);
 }
 
+// Keyframes by track loss alone: the parallax trigger off, a tenth of the tracks lost makes one;
+// a frame between scans waits until fewer than `between_scans` live (0.9: no wait).
+WindowOptions trackLossKeyframes(double between_scans) {
+  WindowOptions o;
+  o.kf_parallax_deg = 90.0;
+  o.kf_track_fraction = 0.9;
+  o.kf_track_fraction_between_scans = between_scans;
+  return o;
+}
+
 // The LiDAR scans every second frame. Keyframes that track loss triggers land on a frame with a
 // scan: one between scans waits for the next frame, which brings one. Without that wait, half of
 // them had no scan (and so no LiDAR range) on the simulated rows, where the canopy's tracks end
-// fast. Here the parallax trigger is off and a tenth of the tracks lost makes a keyframe.
+// fast.
 TEST(WindowCore, KeyframesWaitForTheNextScanWhenTracksRunOut) {
   SyntheticOptions o;
   o.duration_s = 8.0;
@@ -379,13 +389,8 @@ TEST(WindowCore, KeyframesWaitForTheNextScanWhenTracksRunOut) {
     }
     return kfs > 0 ? static_cast<double>(with_scan) / kfs : 0.0;
   };
-  WindowOptions wait;
-  wait.kf_parallax_deg = 90.0;
-  wait.kf_track_fraction = 0.9;
-  wait.kf_track_fraction_between_scans = 0.8;
-  WindowOptions no_wait = wait;
-  no_wait.kf_track_fraction_between_scans = no_wait.kf_track_fraction;
-  const RunResult waiting = run(seq, wait), not_waiting = run(seq, no_wait);
+  const RunResult waiting = run(seq, trackLossKeyframes(0.8)),
+                  not_waiting = run(seq, trackLossKeyframes(0.9));
   expectAllFinite(waiting);
   std::printf("keyframes on a frame with a scan: %.2f waiting, %.2f not\n",
               fractionWithScan(waiting), fractionWithScan(not_waiting));
@@ -408,13 +413,8 @@ TEST(WindowCore, NoKeyframeWaitsForALidarOutOfStepWithTheCamera) {
   o.duration_s = 8.0;
   auto seq = makeSyntheticSequence(o);
   for (LidarScan& s : seq.scans) s.t_ns += 25'000'000;
-  WindowOptions wait;
-  wait.kf_parallax_deg = 90.0;
-  wait.kf_track_fraction = 0.9;
-  wait.kf_track_fraction_between_scans = 0.8;
-  WindowOptions no_wait = wait;
-  no_wait.kf_track_fraction_between_scans = no_wait.kf_track_fraction;
-  const RunResult waiting = run(seq, wait), not_waiting = run(seq, no_wait);
+  const RunResult waiting = run(seq, trackLossKeyframes(0.8)),
+                  not_waiting = run(seq, trackLossKeyframes(0.9));
   const auto keyframeTimes = [](const RunResult& r) {
     std::vector<Timestamp> t;
     for (const FrameEstimate& e : r.estimates)
