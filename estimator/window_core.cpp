@@ -93,7 +93,6 @@ WindowCore::WindowCore(const SensorSetup& setup, const WindowOptions& options,
                   options.standstill_trim_s) {
   const double pixel_sigma = options.pixel_sigma > 0.0 ? options.pixel_sigma : setup.pixel_sigma;
   model_.T_B_C = setup.T_B_C;
-  model_.T_B_L = setup.T_B_L;
   model_.bearing_sigma_rad = pixel_sigma / camera::focalPx(setup.camera);
   model_.bearing_huber = options.bearing_huber_sigmas;
   model_.bearing_creep_rad = options.track_creep_px / camera::focalPx(setup.camera);
@@ -174,6 +173,37 @@ const LidarScan* WindowCore::scanAt(Timestamp t_ns) const {
         (!best || std::llabs(s.t_ns - t_ns) < std::llabs(best->t_ns - t_ns)))
       best = &s;
   return best;
+}
+
+std::optional<WindowCore::FrameScan> WindowCore::scanFor(Timestamp t_ns, const SE3& T_W_B) const {
+  if (!use_lidar_) return std::nullopt;
+  if (const LidarScan* s = scanAt(t_ns)) return FrameScan{s, setup_.T_B_L};
+  if (!(options_.lidar_scan_max_age_s > 0.0) || !use_gyro_) return std::nullopt;
+  const LidarScan* latest = nullptr;  // the latest scan before the frame, within the age
+  for (const LidarScan& s : scans_)
+    if (s.t_ns < t_ns && t_ns - s.t_ns <= fromSeconds(options_.lidar_scan_max_age_s)) latest = &s;
+  if (latest == nullptr) return std::nullopt;
+  const auto pi = preintegrate(latest->t_ns, t_ns, bias_);
+  if (!pi || pi->status() != factors::GyroPreintegration::Status::kOk) return std::nullopt;
+  // Body at the scan seen from the body at the frame: turned back by the gyro's rotation over the
+  // gap; its position interpolated between the two frames around the scan (this frame's and the
+  // recorded ones), else moved back by the velocity.
+  Vec3 p_W_scan = T_W_B.translation() - velocity_W_ * toSeconds(t_ns - latest->t_ns);
+  Timestamp t1 = t_ns;
+  Vec3 p1 = T_W_B.translation();
+  for (auto it = frames_.rbegin(); it != frames_.rend() && it->t_ns < t1; ++it) {
+    if (it->t_ns <= latest->t_ns) {
+      const double a = static_cast<double>(latest->t_ns - it->t_ns) / (t1 - it->t_ns);
+      p_W_scan = (1.0 - a) * it->T_W_B.translation() + a * p1;
+      break;
+    }
+    t1 = it->t_ns;
+    p1 = it->T_W_B.translation();
+  }
+  SE3 T_Bt_Bs = SE3::Identity();
+  T_Bt_Bs.linear() = pi->deltaR().transpose();
+  T_Bt_Bs.translation() = T_W_B.linear().transpose() * (p_W_scan - T_W_B.translation());
+  return FrameScan{latest, T_Bt_Bs * setup_.T_B_L};
 }
 
 bool WindowCore::scanExpectedAfter(Timestamp t_ns) const {
@@ -270,7 +300,8 @@ WindowCore::Reference WindowCore::makeReference(const VisualFrame& frame, const 
   r.t_ns = frame.t_ns;
   r.T_W_B = T_W_B;
   std::unordered_set<TrackId> near_beams;
-  for (const auto& c : lidarCandidates(frame)) near_beams.insert(c.track_id);
+  for (const auto& c : lidarCandidates(frame, scanFor(frame.t_ns, T_W_B)))
+    near_beams.insert(c.track_id);
   for (const auto& o : selectSpread(frame.observations, {}, near_beams, options_))
     r.obs[o.track_id] = o;
   r.frame_index = static_cast<int>(frames_.size());
@@ -582,19 +613,18 @@ bool WindowCore::isKeyframe(const VisualFrame& frame, const SE3& T_W_B, bool has
          toSeconds(frame.t_ns - last.t_ns) >= options_.kf_max_interval_s;
 }
 
-std::vector<LidarAssociation> WindowCore::lidarCandidates(const VisualFrame& frame) const {
+std::vector<LidarAssociation> WindowCore::lidarCandidates(
+    const VisualFrame& frame, const std::optional<FrameScan>& scan) const {
   std::vector<LidarAssociation> out;
-  if (!use_lidar_) return out;
-  const LidarScan* scan = scanAt(frame.t_ns);
-  if (scan == nullptr) return out;
+  if (!scan) return out;
   for (const BeamMatch& m :
        associateBeams(usableBeams(*scan), frame.observations, options_.lidar_radius_px))
     out.push_back({m.track_id, m.range_m});
   return out;
 }
 
-std::vector<BeamInImage> WindowCore::usableBeams(const LidarScan& scan) const {
-  return projectScan(scan, setup_.camera, cameraFromLidar(setup_.T_B_C, setup_.T_B_L),
+std::vector<BeamInImage> WindowCore::usableBeams(const FrameScan& scan) const {
+  return projectScan(*scan.scan, setup_.camera, cameraFromLidar(setup_.T_B_C, scan.T_B_L),
                      options_.lidar_edge_step, options_.lidar_edge_neighbours);
 }
 
@@ -604,7 +634,8 @@ Keyframe* WindowCore::addKeyframe(Timestamp t_ns, const SE3& T_W_B, const Vec3& 
   VisualFrame frame;
   frame.t_ns = t_ns;
   frame.observations = candidates;
-  const auto near_beams = lidarCandidates(frame);
+  const auto scan = scanFor(t_ns, T_W_B);
+  const auto near_beams = lidarCandidates(frame, scan);
   std::unordered_set<TrackId> keep_ids, near_ids;
   if (keep != nullptr)
     for (const auto& [id, o] : *keep) keep_ids.insert(id);
@@ -626,8 +657,8 @@ Keyframe* WindowCore::addKeyframe(Timestamp t_ns, const SE3& T_W_B, const Vec3& 
     if (auto pi = preintegrate(prev.t_ns, t_ns, prev.bias()))
       kf->preint_from_prev = std::make_shared<factors::GyroPreintegration>(std::move(*pi));
   }
-  if (use_lidar_)
-    if (const LidarScan* s = scanAt(t_ns)) kf->scan = *s;
+  kf->T_B_L = scan ? scan->T_B_L : setup_.T_B_L;
+  if (scan) kf->scan = *scan->scan;
   kf_times_[kf->id] = t_ns;
   ++stats_.keyframes;
   map_.keyframes.push_back(std::move(kf));
@@ -669,7 +700,7 @@ void WindowCore::triangulateNewLandmarks(Keyframe& kf) {
 std::vector<WindowCore::LidarRange> WindowCore::lidarRangesAt(const Keyframe& kf) const {
   std::vector<LidarRange> out;
   if (!use_lidar_) return out;
-  const SE3 T_L_W = (kf.pose() * setup_.T_B_L).inverse();
+  const SE3 T_L_W = (kf.pose() * kf.T_B_L).inverse();
   if (options_.lidar_interpolate) {
     // Every landmark the keyframe sees whose point lies within a small elevation of the scan
     // plane: the scan's range interpolated at its azimuth (no pixel-radius offset along the scan).
@@ -680,10 +711,10 @@ std::vector<WindowCore::LidarRange> WindowCore::lidarRangesAt(const Keyframe& kf
                                      ? *setup_.camera_height_m
                                      : 0.0;
     const bool skip_ground = options_.lidar_ground_beams == "skip";
-    const SE3 T_C_L = cameraFromLidar(setup_.T_B_C, setup_.T_B_L);
+    const SE3 T_C_L = cameraFromLidar(setup_.T_B_C, kf.T_B_L);
     const SE3 T_L_C = T_C_L.inverse();
     const Vec3 up_C = bodyUpIn(setup_.T_B_C);
-    const Vec3 up_L = bodyUpIn(setup_.T_B_L);
+    const Vec3 up_L = bodyUpIn(kf.T_B_L);
     for (const auto& [id, o] : kf.observations) {
       const auto p_W = map_.pointW(id, setup_.T_B_C);
       if (!p_W) continue;
@@ -822,9 +853,8 @@ void WindowCore::removeOutliers() {
     it = bad ? map_.landmarks.erase(it) : std::next(it);
   }
   // LiDAR associations that disagree with the solved landmark by more than the gate.
-  const SE3 T_B_L = setup_.T_B_L;
   for (Keyframe* kf : kfs) {
-    const SE3 T_L_W = (kf->pose() * T_B_L).inverse();
+    const SE3 T_L_W = (kf->pose() * kf->T_B_L).inverse();
     std::erase_if(kf->lidar, [&](const LidarAssociation& a) {
       auto lm = map_.landmarks.find(a.track_id);
       if (lm == map_.landmarks.end()) return true;
@@ -1026,7 +1056,7 @@ bool WindowCore::tryInitialize(const VisualFrame& frame, const SE3& T_W_B_pred,
       point_of[ids[tv->points_index[k]]] = static_cast<int>(k);
     std::vector<double> ratios;
     for (int view = 0; view < 2; ++view) {
-      const LidarScan* scan = scanAt(view == 0 ? ref.t_ns : frame.t_ns);
+      const auto scan = view == 0 ? scanFor(ref.t_ns, ref.T_W_B) : scanFor(frame.t_ns, T_W_B_pred);
       if (!scan) continue;
       const auto beams = usableBeams(*scan);
       const auto& observations = view == 0 ? toVector(ref.obs) : frame.observations;

@@ -85,13 +85,26 @@ class WindowCore {
   std::optional<factors::GyroPreintegration> preintegrate(Timestamp t0, Timestamp t1,
                                                           const Vec3& bias) const;
   const LidarScan* scanAt(Timestamp t_ns) const;
+  /// A scan for the frame at t_ns (body pose T_W_B) and the LiDAR's pose when it took it, in
+  /// that frame's body frame: the scan at the frame (scanAt, the rig's T_B_L), else the latest
+  /// scan up to lidar_scan_max_age_s older, its LiDAR pose moved back by the gyro's rotation over
+  /// the gap and by the position interpolated between the frames around the scan (needs the
+  /// gyro). Before initialisation those positions are not yet metric: an older scan there
+  /// carries the motion over its age as an error (1.6 cm at 0.8 m/s and 20 ms). nullopt: none.
+  struct FrameScan {
+    const LidarScan* scan = nullptr;
+    SE3 T_B_L = SE3::Identity();
+  };
+  std::optional<FrameScan> scanFor(Timestamp t_ns, const SE3& T_W_B) const;
   /// Whether the frame after the one at t_ns (one frame period on) is expected to come with a
   /// scan (within lidar_scan_time_tol_s): the first buffered scan after t_ns, or else the last
   /// scan plus the last scan period, falls on it.
   bool scanExpectedAfter(Timestamp t_ns) const;
   /// A frame a two-view reference may start at: with the LiDAR, one with a scan (both views then
   /// give range ratios for the scale).
-  bool canReference(Timestamp t_ns) const { return !use_lidar_ || scanAt(t_ns) != nullptr; }
+  bool canReference(Timestamp t_ns) const {
+    return !use_lidar_ || scanFor(t_ns, SE3::Identity()).has_value();
+  }
   bool tryInitialize(const VisualFrame& frame, const SE3& T_W_B_pred, FrameEstimate* out);
   void startReference(const VisualFrame& frame, const SE3& T_W_B);
   // Before initialisation: the frame's rotation, the gyro's (in T_W_B_pred), else the two-view
@@ -104,9 +117,10 @@ class WindowCore {
   Keyframe* addKeyframe(Timestamp t_ns, const SE3& T_W_B, const Vec3& bias,
                         const std::vector<TrackObservation>& candidates,
                         const std::unordered_map<TrackId, TrackObservation>* keep);
-  std::vector<LidarAssociation> lidarCandidates(const VisualFrame& frame) const;
+  std::vector<LidarAssociation> lidarCandidates(const VisualFrame& frame,
+                                                const std::optional<FrameScan>& scan) const;
   // The scan's beams on smooth surfaces, in the image (to pair with features by their pixel).
-  std::vector<BeamInImage> usableBeams(const LidarScan& scan) const;
+  std::vector<BeamInImage> usableBeams(const FrameScan& scan) const;
   void triangulateNewLandmarks(Keyframe& kf);
   // A range of the keyframe's scan to a landmark it sees, and the landmark's distance as the
   // window has it (both in the scan plane for interpolated ranges).

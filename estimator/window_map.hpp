@@ -58,6 +58,9 @@ struct Keyframe {
   std::vector<LidarAssociation> lidar_candidates;  // beams near tracks (landmarks or not yet)
   std::unordered_set<TrackId> lidar_rejected;      // associations removed as outliers: not again
   std::optional<LidarScan> scan;
+  /// The LiDAR's pose when it took `scan`, in this keyframe's body frame: the rig's T_B_L for a
+  /// scan at the keyframe's time, moved by the motion in between for an earlier one.
+  SE3 T_B_L = SE3::Identity();
   int segment = 0;  // increases at every re-initialisation after a tracking loss
   /// Zero-rate update from a standstill after this keyframe: the bias measured as the mean gyro
   /// rate of the still frames (a bias prior factor while the keyframe is in the window).

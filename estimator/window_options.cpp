@@ -73,6 +73,8 @@ WindowOptions readWindowOptions(const Config& c) {
       c.getIntInRange(p + "lidar_edge_neighbours", o.lidar_edge_neighbours, 0, 20);
   o.lidar_scan_time_tol_s =
       c.getInRange(p + "lidar_scan_time_tol_s", o.lidar_scan_time_tol_s, 0.0, 1.0);
+  o.lidar_scan_max_age_s =
+      c.getInRange(p + "lidar_scan_max_age_s", o.lidar_scan_max_age_s, 0.0, 1.0);
   o.lidar_min_associations =
       c.getIntInRange(p + "lidar_min_associations", o.lidar_min_associations, 1, 10000);
   o.lidar_rescale_ratio = c.getInRange(p + "lidar_rescale_ratio", o.lidar_rescale_ratio, 0.0, 10.0);

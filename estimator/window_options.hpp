@@ -99,12 +99,15 @@ struct WindowOptions {
                                            // of the range
   std::string lidar_loss = "huber";        // robust loss of LiDAR factors: huber | cauchy
   double lidar_scan_time_tol_s = 0.004;    // a scan belongs to a frame within this time, s
-  int lidar_min_associations = 8;          // fewer (or disagreeing) at initialisation: ground plane
-  double lidar_rescale_ratio = 0.1;        // the window's landmark distances over the LiDAR's
-                                           // ranges to them this far from 1: the window is
-                                           // rescaled to the ranges (0: never) ...
-  int lidar_rescale_min_ranges = 8;        // ... when at least this many ranges (and half of
-  double lidar_rescale_agreement = 0.1;    // them) agree on the ratio within this fraction
+  // A frame without one takes the latest scan up to this much older, its LiDAR pose moved by the
+  // motion since (a LiDAR out of step with the camera; scanFor); 0: none, s.
+  double lidar_scan_max_age_s = 0.05;
+  int lidar_min_associations = 8;        // fewer (or disagreeing) at initialisation: ground plane
+  double lidar_rescale_ratio = 0.1;      // the window's landmark distances over the LiDAR's
+                                         // ranges to them this far from 1: the window is
+                                         // rescaled to the ranges (0: never) ...
+  int lidar_rescale_min_ranges = 8;      // ... when at least this many ranges (and half of
+  double lidar_rescale_agreement = 0.1;  // them) agree on the ratio within this fraction
 
   // Initialisation.
   double init_parallax_deg = 1.5;  // rotation-compensated median parallax to initialise, deg

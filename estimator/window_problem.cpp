@@ -94,15 +94,13 @@ std::vector<FactorSpec> buildFactors(const std::vector<Keyframe*>& keyframes,
       const double sigma =
           a.ground_up_L.isZero() ? model.lidar_sigma_m : model.lidar_ground_sigma_m;
       if (anchor_it->second == kf) {
-        f.cost = std::make_unique<factors::LidarRangeAnchorFactor>(lm.bearing_anchor_C, a.range_m,
-                                                                   model.T_B_C, model.T_B_L, sigma,
-                                                                   a.planar, a.ground_up_L);
+        f.cost = std::make_unique<factors::LidarRangeAnchorFactor>(
+            lm.bearing_anchor_C, a.range_m, model.T_B_C, kf->T_B_L, sigma, a.planar, a.ground_up_L);
         f.blocks = {lm.rho};
       } else {
         Keyframe* anchor = anchor_it->second;
-        f.cost = std::make_unique<factors::LidarRangeFactor>(lm.bearing_anchor_C, a.range_m,
-                                                             model.T_B_C, model.T_B_L, sigma,
-                                                             a.planar, a.ground_up_L);
+        f.cost = std::make_unique<factors::LidarRangeFactor>(
+            lm.bearing_anchor_C, a.range_m, model.T_B_C, kf->T_B_L, sigma, a.planar, a.ground_up_L);
         f.blocks = {anchor->q_W_B, anchor->p_W_B, kf->q_W_B, kf->p_W_B, lm.rho};
       }
       f.track = a.track_id;

@@ -39,8 +39,7 @@ class BiasPriorFactor final : public ceres::SizedCostFunction<3, 3> {
 
 /// Constants of the window's factors.
 struct WindowModel {
-  SE3 T_B_C = SE3::Identity();
-  SE3 T_B_L = SE3::Identity();
+  SE3 T_B_C = SE3::Identity();             // (the LiDAR's pose is each keyframe's: Keyframe::T_B_L)
   double bearing_sigma_rad = 0.5 / 305.0;  // pixel sigma / focal px
   double bearing_huber = 2.0;              // Huber threshold on the whitened residual (sigmas)
   double bearing_creep_rad = 0.0;  // track creep per sqrt(frame) between anchor and observation

@@ -28,6 +28,7 @@ std::unique_ptr<Keyframe> batchCopy(const Keyframe& kf) {
   b->preint_from_prev = kf.preint_from_prev;
   b->segment = kf.segment;
   b->zero_rate = kf.zero_rate;
+  b->T_B_L = kf.T_B_L;  // the LiDAR factors' pose of the scan (Keyframe::T_B_L)
   return b;
 }
 
@@ -236,7 +237,7 @@ RefineInfo refineKeyframes(const std::vector<Keyframe*>& keyframes,
     std::unordered_map<int, Keyframe*> kf_of;
     for (Keyframe* kf : kfs) kf_of[kf->id] = kf;
     for (Keyframe* kf : kfs) {
-      const SE3 T_L_W = (kf->pose() * model.T_B_L).inverse();
+      const SE3 T_L_W = (kf->pose() * kf->T_B_L).inverse();
       info.removed_outliers += std::erase_if(kf->lidar, [&](const LidarAssociation& a) {
         const auto lm = landmarks.find(a.track_id);
         if (lm == landmarks.end()) return true;

@@ -33,6 +33,7 @@ struct SyntheticOptions {
   Vec3 gyro_bias = Vec3(0.004, -0.003, 0.005);  // rad/s
   double gyro_noise_density = 1.7e-4;
   double gyro_gap_from_s = -1.0, gyro_gap_to_s = -1.0;  // no gyro samples inside (s)
+  double lidar_delay_s = 0.0;  // each scan this long after its frame (a LiDAR out of step), s
   std::uint32_t seed = 3;
 };
 
@@ -46,7 +47,7 @@ struct SyntheticSequence {
   estimator::SensorSetup setup{camera::PinholeRadtanCamera(300, 300, 320, 240, 640, 480), {}, {}};
   std::vector<SyntheticFrame> frames;
   std::vector<ImuSample> imu;
-  std::vector<LidarScan> scans;  // one on every second camera frame
+  std::vector<LidarScan> scans;  // one on every second camera frame (lidar_delay_s after it)
 };
 
 inline double syntheticSpeed(const SyntheticOptions& o, double t) {
@@ -174,12 +175,12 @@ inline SyntheticSequence makeSyntheticSequence(const SyntheticOptions& o,
     }
     if (f % 2 == 0) {
       LidarScan scan;
-      scan.t_ns = frame.t_ns;
+      scan.t_ns = fromSeconds(t + o.lidar_delay_s);
       scan.angle_min_rad = -135.0 * M_PI / 180.0;
       scan.angle_increment_rad = 0.5 * M_PI / 180.0;
       scan.range_min_m = 0.1;
       scan.range_max_m = 12.0;
-      const SE3 T_W_L = frame.T_W_B * seq.setup.T_B_L;
+      const SE3 T_W_L = poseAt(t + o.lidar_delay_s) * seq.setup.T_B_L;
       for (int b = 0; b <= 540; ++b) {
         const double a = scan.angle_min_rad + b * scan.angle_increment_rad;
         const Vec3 o_W = T_W_L.translation();
