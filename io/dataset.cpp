@@ -18,7 +18,6 @@ namespace ovo::io {
 
 namespace {
 
-// Sensor streams must be strictly ordered in time.
 // 1 / median time step, or nullopt with fewer than two stamps.
 template <typename T, typename Stamp>
 std::optional<double> rateHz(const std::vector<T>& items, Stamp stamp) {
