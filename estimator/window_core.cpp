@@ -854,16 +854,12 @@ void WindowCore::removeOutliers() {
   }
   // LiDAR associations that disagree with the solved landmark by more than the gate.
   for (Keyframe* kf : kfs) {
-    const SE3 T_L_W = (kf->pose() * kf->T_B_L).inverse();
     std::erase_if(kf->lidar, [&](const LidarAssociation& a) {
       auto lm = map_.landmarks.find(a.track_id);
       if (lm == map_.landmarks.end()) return true;
       const auto p_W = map_.pointW(lm->second, setup_.T_B_C);
-      const bool outlier =
-          !p_W ||
-          lidarRangeDisagrees(a, *p_W, T_L_W, options_.lidar_outlier_sigmas * model_.lidar_sigma_m,
-                              options_.lidar_outlier_fraction,
-                              options_.lidar_outlier_sigmas * model_.lidar_ground_sigma_m);
+      const bool outlier = !p_W || lidarOutlier(a, *p_W, *kf, model_, options_.lidar_outlier_sigmas,
+                                                options_.lidar_outlier_fraction);
       if (outlier) kf->lidar_rejected.insert(a.track_id);
       return outlier;
     });

@@ -252,12 +252,14 @@ SolveSummary solveFactors(std::vector<FactorSpec> factors, const std::vector<Key
   return summary;
 }
 
-bool lidarRangeDisagrees(const LidarAssociation& a, const Vec3& p_W, const SE3& T_L_W,
-                         double gate_m, double gate_fraction, double ground_gate_m) {
+bool lidarOutlier(const LidarAssociation& a, const Vec3& p_W, const Keyframe& kf,
+                  const WindowModel& model, double gate_sigmas, double gate_fraction) {
+  const SE3 T_L_W = (kf.pose() * kf.T_B_L).inverse();
   const auto value = factors::lidarMeasuredValue(T_L_W * p_W, a.planar, a.ground_up_L);
   if (!value) return true;  // the landmark sits on the LiDAR
-  const double gate =
-      a.ground_up_L.isZero() ? std::max(gate_m, gate_fraction * a.range_m) : ground_gate_m;
+  const double gate = a.ground_up_L.isZero()
+                          ? std::max(gate_sigmas * model.lidar_sigma_m, gate_fraction * a.range_m)
+                          : gate_sigmas * model.lidar_ground_sigma_m;
   return std::abs(*value - a.range_m) > gate;
 }
 

@@ -126,12 +126,13 @@ std::vector<ObservationError> observationErrors(const std::vector<Keyframe*>& ke
                                                 const std::unordered_map<TrackId, Landmark>& lms,
                                                 const WindowModel& model);
 
-/// True when the range a LiDAR association measured and the range to the landmark point p_W,
-/// seen from the scan's pose T_L_W (in the scan plane when planar), differ by more than
-/// max(gate_m, gate_fraction * range); for a ground-plane association, when the landmark's height
-/// off that plane exceeds ground_gate_m.
-bool lidarRangeDisagrees(const LidarAssociation& a, const Vec3& p_W, const SE3& T_L_W,
-                         double gate_m, double gate_fraction, double ground_gate_m);
+/// The window's LiDAR gate: true when the range association a of keyframe kf measured and the
+/// range to the landmark point p_W, seen from where kf's scan was taken (kf.T_B_L; in the scan
+/// plane when planar), differ by more than max(gate_sigmas * lidar_sigma_m, gate_fraction *
+/// range); for a ground-plane association, when the landmark's height off that plane exceeds
+/// gate_sigmas * lidar_ground_sigma_m.
+bool lidarOutlier(const LidarAssociation& a, const Vec3& p_W, const Keyframe& kf,
+                  const WindowModel& model, double gate_sigmas, double gate_fraction);
 
 /// Re-propagates the gyro preintegrations (keyframes in time order) whose bias linearisation is
 /// now more than 0.002 rad/s from the previous keyframe's estimate.

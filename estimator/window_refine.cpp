@@ -237,16 +237,13 @@ RefineInfo refineKeyframes(const std::vector<Keyframe*>& keyframes,
     std::unordered_map<int, Keyframe*> kf_of;
     for (Keyframe* kf : kfs) kf_of[kf->id] = kf;
     for (Keyframe* kf : kfs) {
-      const SE3 T_L_W = (kf->pose() * kf->T_B_L).inverse();
       info.removed_outliers += std::erase_if(kf->lidar, [&](const LidarAssociation& a) {
         const auto lm = landmarks.find(a.track_id);
         if (lm == landmarks.end()) return true;
         const Vec3 p_W = kf_of.at(lm->second.anchor_kf)->pose() *
                          (model.T_B_C * (lm->second.bearing_anchor_C / lm->second.rho[0]));
-        return lidarRangeDisagrees(a, p_W, T_L_W,
-                                   options.lidar_outlier_sigmas * model.lidar_sigma_m,
-                                   options.lidar_outlier_fraction,
-                                   options.lidar_outlier_sigmas * model.lidar_ground_sigma_m);
+        return lidarOutlier(a, p_W, *kf, model, options.lidar_outlier_sigmas,
+                            options.lidar_outlier_fraction);
       });
     }
     if (options.refine_ground) labelGroundLandmarks(landmarks, model, options, ground_options);
