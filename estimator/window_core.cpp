@@ -105,6 +105,7 @@ WindowCore::WindowCore(const SensorSetup& setup, const WindowOptions& options,
   model_.bias_random_walk = options.gyro_bias_random_walk > 0.0 ? options.gyro_bias_random_walk
                                                                 : setup.gyro_bias_random_walk;
   model_.bias_prior_sigma_radps = options.gyro_bias_prior_sigma_radps;
+  model_.vision_rotation_sigma_rad = options.vision_rotation_sigma_rad;
   model_.gauge_sigma_position_m = options.gauge_sigma_position_m;
   model_.gauge_sigma_rotation_rad = options.gauge_sigma_yaw_rad;
   model_.min_rho = 1.0 / (2.0 * options.landmark_max_depth_m);
@@ -323,12 +324,12 @@ void WindowCore::recordFrame(const FrameEstimate& e, int ref_kf) {
   frames_.push_back(r);
 }
 
-std::optional<SE3> WindowCore::keyframePose(int kf_id) const {
-  if (const Keyframe* kf = map_.find(kf_id)) return kf->pose();
+std::optional<SE3> WindowCore::keyframePose(int kf_id, bool body) const {
+  if (const Keyframe* kf = map_.find(kf_id)) return body ? kf->bodyPose() : kf->pose();
   for (const auto& kf : map_.archive)
-    if (kf->id == kf_id) return kf->pose();
+    if (kf->id == kf_id) return body ? kf->bodyPose() : kf->pose();
   auto it = kf_poses_.find(kf_id);
-  if (it != kf_poses_.end()) return it->second;
+  if (it != kf_poses_.end()) return body ? it->second.body : it->second.vision;
   return std::nullopt;
 }
 
@@ -914,7 +915,7 @@ void WindowCore::marginalize() {
         marginalized[id] = options_.marginalize_reanchored == "all" ? -1 : r.kf_id;
     auto info = marginalizeOldest(map_, model_, gauge_, marginalized);
     map_.rememberPoints(setup_.T_B_C);
-    kf_poses_[oldest->id] = oldest->pose();
+    keepPoses(*oldest);
     countLidar(*oldest, stats_);
     const int oldest_id = oldest->id;
     if (options_.refine == "full") map_.archive.push_back(std::move(map_.keyframes.front()));
@@ -985,7 +986,7 @@ void WindowCore::resetWindow() {
   if (!map_.empty()) carried_bias_ = {map_.keyframes.back()->t_ns, map_.keyframes.back()->bias()};
   map_.rememberPoints(setup_.T_B_C);
   for (auto& kf : map_.keyframes) {
-    kf_poses_[kf->id] = kf->pose();
+    keepPoses(*kf);
     countLidar(*kf, stats_);
     if (options_.refine == "full") map_.archive.push_back(std::move(kf));
   }
@@ -1244,14 +1245,14 @@ void WindowCore::refineAll() {
   refine_info_ =
       refineKeyframes(kfs, map_.last_point_W, model_, gauges, options_, label_ground_options_);
   if (!refine_info_.usable) note("full refinement failed: the online keyframe poses are kept");
-  for (const Keyframe* kf : kfs) kf_poses_[kf->id] = kf->pose();
+  for (const Keyframe* kf : kfs) keepPoses(*kf);
 }
 
 void WindowCore::finish() {
   if (finished_) return;
   finished_ = true;
   if (options_.refine == "full") refineAll();
-  for (const auto& kf : map_.keyframes) kf_poses_[kf->id] = kf->pose();
+  for (const auto& kf : map_.keyframes) keepPoses(*kf);
 }
 
 Trajectory WindowCore::trajectory() const {
@@ -1260,7 +1261,7 @@ Trajectory WindowCore::trajectory() const {
   for (const FrameRecord& r : frames_) {
     SE3 T = r.T_W_B;
     if (r.ref_kf >= 0)
-      if (auto T_W_K = keyframePose(r.ref_kf)) T = *T_W_K * r.T_kf_B;
+      if (auto T_W_K = keyframePose(r.ref_kf, true)) T = *T_W_K * r.T_kf_B;
     if (!allFinite(T)) T = r.T_W_B;
     out.push_back({r.t_ns, T});
   }
@@ -1268,9 +1269,10 @@ Trajectory WindowCore::trajectory() const {
 }
 
 Trajectory WindowCore::keyframes() const {
-  std::map<int, SE3> poses = kf_poses_;
-  for (const auto& kf : map_.keyframes) poses[kf->id] = kf->pose();
-  for (const auto& kf : map_.archive) poses[kf->id] = kf->pose();
+  std::map<int, SE3> poses;
+  for (const auto& [id, p] : kf_poses_) poses[id] = p.body;
+  for (const auto& kf : map_.keyframes) poses[kf->id] = kf->bodyPose();
+  for (const auto& kf : map_.archive) poses[kf->id] = kf->bodyPose();
   Trajectory out;
   for (const auto& [id, T] : poses) {
     auto t = kf_times_.find(id);

@@ -68,8 +68,9 @@ class WindowCore {
   /// What holds the window's gauge now (first-keyframe priors or the marginalisation prior).
   const WindowGauge& gauge() const { return gauge_; }
   const WindowOptions& options() const { return options_; }
-  /// Pose of a keyframe now (window or archive), nullopt when unknown.
-  std::optional<SE3> keyframePose(int kf_id) const;
+  /// Pose of a keyframe now (window or archive), nullopt when unknown: as the vision sees it
+  /// (Keyframe::pose, the frames' reference), or the body's (Keyframe::bodyPose, the output).
+  std::optional<SE3> keyframePose(int kf_id, bool body = false) const;
 
  private:
   struct FrameRecord {
@@ -242,7 +243,12 @@ class WindowCore {
   static constexpr double kStillRestartS = 1.0;
 
   std::vector<FrameRecord> frames_;
-  std::map<int, SE3> kf_poses_;  // keyframe id -> pose when it left the window (or final)
+  struct KeyframePoses {
+    SE3 vision, body;  // Keyframe::pose, Keyframe::bodyPose
+  };
+  std::map<int, KeyframePoses>
+      kf_poses_;  // keyframe id -> poses when it left the window (or final)
+  void keepPoses(const Keyframe& kf) { kf_poses_[kf.id] = {kf.pose(), kf.bodyPose()}; }
   std::map<int, Timestamp> kf_times_;
   std::vector<std::pair<Timestamp, Vec3>> bias_history_;
   EstimatorStats stats_;

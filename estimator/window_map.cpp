@@ -1,5 +1,7 @@
 #include "estimator/window_map.hpp"
 
+#include <algorithm>
+
 #include "factors/parameterization.hpp"
 
 namespace ovo::estimator {
@@ -11,8 +13,15 @@ SE3 Keyframe::pose() const {
   return T;
 }
 
+SE3 Keyframe::bodyPose() const {
+  SE3 T = pose();
+  T.linear() = factors::quatFromBlock(q_W_G).toRotationMatrix();
+  return T;
+}
+
 void Keyframe::setPose(const SE3& T_W_B) {
   factors::quatToBlock(Quat(T_W_B.linear()).normalized(), q_W_B);
+  std::copy_n(q_W_B, 4, q_W_G);
   for (int i = 0; i < 3; ++i) p_W_B[i] = T_W_B.translation()[i];
 }
 

@@ -49,6 +49,9 @@ struct Keyframe {
   int id = 0;  // increasing over the run
   Timestamp t_ns = 0;
   double q_W_B[4] = {0, 0, 0, 1};  // x, y, z, w
+  /// The gyro chain's orientation of the keyframe, tied to q_W_B by WindowModel::
+  /// vision_rotation_sigma_rad (its gyro factors use this one; unused when that is 0).
+  double q_W_G[4] = {0, 0, 0, 1};
   double p_W_B[3] = {0, 0, 0};
   double b_g[3] = {0, 0, 0};
   std::unordered_map<TrackId, TrackObservation> observations;
@@ -70,8 +73,9 @@ struct Keyframe {
   };
   std::optional<ZeroRate> zero_rate;
 
-  SE3 pose() const;
-  void setPose(const SE3& T_W_B);
+  SE3 pose() const;                // as the vision sees it: q_W_B, p_W_B
+  SE3 bodyPose() const;            // the body's estimate: q_W_G, p_W_B (the output)
+  void setPose(const SE3& T_W_B);  // sets q_W_G to the same orientation
   Vec3 bias() const { return Vec3(b_g[0], b_g[1], b_g[2]); }
   void setBias(const Vec3& b);
 };

@@ -43,6 +43,8 @@ WindowOptions readWindowOptions(const Config& c) {
   o.lidar_huber_sigmas = c.getInRange(p + "lidar_huber_sigmas", o.lidar_huber_sigmas, 0.1, 100.0);
   o.gyro_bias_random_walk =
       c.getInRange(p + "gyro_bias_random_walk", o.gyro_bias_random_walk, -1.0, 1.0);
+  o.vision_rotation_sigma_rad =
+      c.getInRange(p + "vision_rotation_sigma_rad", o.vision_rotation_sigma_rad, 0.0, 1.0);
   o.reinit_bias_sigma_radps =
       c.getInRange(p + "reinit_bias_sigma_radps", o.reinit_bias_sigma_radps, 1e-9, 10.0);
   o.gyro_bias_prior_sigma_radps =

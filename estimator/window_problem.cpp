@@ -12,6 +12,7 @@
 #include "factors/lidar_range_factor.hpp"
 #include "factors/parameterization.hpp"
 #include "factors/pose_prior_factor.hpp"
+#include "factors/rotation_tie_factor.hpp"
 
 namespace ovo::estimator {
 namespace {
@@ -20,6 +21,16 @@ std::unordered_map<int, Keyframe*> byId(const std::vector<Keyframe*>& keyframes)
   std::unordered_map<int, Keyframe*> out;
   for (Keyframe* kf : keyframes) out[kf->id] = kf;
   return out;
+}
+
+/// True when the keyframes' gyro factors see an orientation of their own (q_W_G), tied to q_W_B.
+bool tiedRotations(const WindowModel& model) {
+  return model.use_gyro && model.vision_rotation_sigma_rad > 0.0;
+}
+
+/// The orientation block a keyframe's gyro factors use.
+double* gyroRotation(Keyframe& kf, const WindowModel& model) {
+  return tiedRotations(model) ? kf.q_W_G : kf.q_W_B;
 }
 
 }  // namespace
@@ -118,7 +129,7 @@ std::vector<FactorSpec> buildFactors(const std::vector<Keyframe*>& keyframes,
       FactorSpec g;
       g.kind = FactorKind::kGyro;
       g.cost = std::make_unique<factors::GyroFactor>(j->preint_from_prev);
-      g.blocks = {i->q_W_B, j->q_W_B, i->b_g};
+      g.blocks = {gyroRotation(*i, model), gyroRotation(*j, model), i->b_g};
       g.kf_id = j->id;
       out.push_back(std::move(g));
       FactorSpec w;
@@ -128,6 +139,16 @@ std::vector<FactorSpec> buildFactors(const std::vector<Keyframe*>& keyframes,
       w.blocks = {i->b_g, j->b_g};
       w.kf_id = j->id;
       out.push_back(std::move(w));
+    }
+  }
+  if (tiedRotations(model)) {
+    for (Keyframe* kf : keyframes) {
+      FactorSpec t;
+      t.kind = FactorKind::kRotationTie;
+      t.cost = std::make_unique<factors::RotationTieFactor>(model.vision_rotation_sigma_rad);
+      t.blocks = {kf->q_W_B, kf->q_W_G};
+      t.kf_id = kf->id;
+      out.push_back(std::move(t));
     }
   }
   if (model.use_gyro) {
@@ -184,11 +205,12 @@ SolveSummary solveFactors(std::vector<FactorSpec> factors, const std::vector<Key
 
   // Backup for a diverged solve.
   struct KfBackup {
-    double q[4], p[3], b[3];
+    double q[4], g[4], p[3], b[3];
   };
   std::vector<KfBackup> kf_backup(keyframes.size());
   for (std::size_t k = 0; k < keyframes.size(); ++k) {
     std::copy_n(keyframes[k]->q_W_B, 4, kf_backup[k].q);
+    std::copy_n(keyframes[k]->q_W_G, 4, kf_backup[k].g);
     std::copy_n(keyframes[k]->p_W_B, 3, kf_backup[k].p);
     std::copy_n(keyframes[k]->b_g, 3, kf_backup[k].b);
   }
@@ -196,8 +218,11 @@ SolveSummary solveFactors(std::vector<FactorSpec> factors, const std::vector<Key
   for (const auto& [id, lm] : landmarks) rho_backup[id] = lm.rho[0];
 
   ceres::Problem problem;
-  for (Keyframe* kf : keyframes)
+  for (Keyframe* kf : keyframes) {
     problem.AddParameterBlock(kf->q_W_B, 4, factors::newQuaternionManifold());
+    if (tiedRotations(model))
+      problem.AddParameterBlock(kf->q_W_G, 4, factors::newQuaternionManifold());
+  }
   for (FactorSpec& f : factors) {
     problem.AddResidualBlock(f.cost.release(), f.loss.release(), f.blocks);
     ++summary.residual_blocks;
@@ -207,6 +232,9 @@ SolveSummary solveFactors(std::vector<FactorSpec> factors, const std::vector<Key
     std::vector<ceres::ResidualBlockId> ids;
     problem.GetResidualBlocksForParameterBlock(kf->q_W_B, &ids);
     if (ids.empty()) problem.RemoveParameterBlock(kf->q_W_B);
+    if (!problem.HasParameterBlock(kf->q_W_G)) continue;
+    problem.GetResidualBlocksForParameterBlock(kf->q_W_G, &ids);
+    if (ids.empty()) problem.RemoveParameterBlock(kf->q_W_G);
   }
   for (auto& [id, lm] : landmarks) {
     if (!problem.HasParameterBlock(lm.rho)) continue;
@@ -232,13 +260,15 @@ SolveSummary solveFactors(std::vector<FactorSpec> factors, const std::vector<Key
   summary.message = s.message;
   bool finite = s.termination_type != ceres::FAILURE;
   for (const Keyframe* kf : keyframes)
-    finite = finite && std::isfinite(kf->q_W_B[0] + kf->q_W_B[1] + kf->q_W_B[2] + kf->q_W_B[3] +
-                                     kf->p_W_B[0] + kf->p_W_B[1] + kf->p_W_B[2] + kf->b_g[0] +
-                                     kf->b_g[1] + kf->b_g[2]);
+    finite = finite &&
+             std::isfinite(kf->q_W_B[0] + kf->q_W_B[1] + kf->q_W_B[2] + kf->q_W_B[3] +
+                           kf->p_W_B[0] + kf->p_W_B[1] + kf->p_W_B[2] + kf->b_g[0] + kf->b_g[1] +
+                           kf->b_g[2] + kf->q_W_G[0] + kf->q_W_G[1] + kf->q_W_G[2] + kf->q_W_G[3]);
   for (const auto& [id, lm] : landmarks) finite = finite && std::isfinite(lm.rho[0]);
   if (!finite) {
     for (std::size_t k = 0; k < keyframes.size(); ++k) {
       std::copy_n(kf_backup[k].q, 4, keyframes[k]->q_W_B);
+      std::copy_n(kf_backup[k].g, 4, keyframes[k]->q_W_G);
       std::copy_n(kf_backup[k].p, 3, keyframes[k]->p_W_B);
       std::copy_n(kf_backup[k].b, 3, keyframes[k]->b_g);
     }
@@ -247,6 +277,10 @@ SolveSummary solveFactors(std::vector<FactorSpec> factors, const std::vector<Key
   }
   for (Keyframe* kf : keyframes) {  // keep the quaternions exactly unit
     factors::quatToBlock(factors::quatFromBlock(kf->q_W_B), kf->q_W_B);
+    if (tiedRotations(model))
+      factors::quatToBlock(factors::quatFromBlock(kf->q_W_G), kf->q_W_G);
+    else  // one orientation for both
+      std::copy_n(kf->q_W_B, 4, kf->q_W_G);
   }
   summary.usable = true;
   return summary;
@@ -304,9 +338,13 @@ std::shared_ptr<const factors::MarginalizationInfo> marginalizeOldest(
 
   std::vector<FactorSpec> all = buildFactors(kfs, map.landmarks, model, gauge);
   auto info = std::make_shared<factors::MarginalizationInfo>();
-  for (Keyframe* kf : kfs) info->setQuaternionBlock(kf->q_W_B);
+  for (Keyframe* kf : kfs) {
+    info->setQuaternionBlock(kf->q_W_B);
+    if (tiedRotations(model)) info->setQuaternionBlock(kf->q_W_G);
+  }
 
-  std::unordered_set<const double*> drop = {oldest->q_W_B, oldest->p_W_B, oldest->b_g};
+  std::unordered_set<const double*> drop = {oldest->q_W_B, oldest->q_W_G, oldest->p_W_B,
+                                            oldest->b_g};
   for (auto& [id, lm] : map.landmarks)
     if (lm.anchor_kf == oldest->id && marginalize_tracks.count(id)) drop.insert(lm.rho);
 

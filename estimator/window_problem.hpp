@@ -48,6 +48,8 @@ struct WindowModel {
   double lidar_huber = 2.0;            // robust loss threshold on the whitened residual (sigmas)
   bool lidar_cauchy = false;         // Cauchy (an association far off pulls ever less), else Huber
   double bias_random_walk = 2.0e-5;  // rad/s^2/sqrt(Hz)
+  double vision_rotation_sigma_rad = 0.0;  // a keyframe's orientation error as the vision sees
+                                           // it (RotationTieFactor; 0: no tie, one orientation)
   double bias_prior_sigma_radps = 0.02;
   double gauge_sigma_position_m = 1e-4;
   double gauge_sigma_rotation_rad = 1e-4;
@@ -77,7 +79,8 @@ enum class FactorKind {
   kPosePrior,
   kLidar,
   kMarginal,
-  kGround
+  kGround,
+  kRotationTie
 };
 
 /// One residual block before it goes into a Problem or a MarginalizationInfo.

@@ -13,6 +13,7 @@
 
 #include "camera/calib_io.hpp"
 #include "camera/camera.hpp"
+#include "common/so3.hpp"
 #include "estimator/estimator.hpp"
 #include "estimator/window_map.hpp"
 
@@ -34,6 +35,9 @@ struct SyntheticOptions {
   double gyro_noise_density = 1.7e-4;
   double gyro_gap_from_s = -1.0, gyro_gap_to_s = -1.0;  // no gyro samples inside (s)
   double lidar_delay_s = 0.0;  // each scan this long after its frame (a LiDAR out of step), s
+  double vision_rotation_jitter_rad = 0.0;  // every frame's features are seen as from a camera
+                                            // turned by a random rotation of this sigma per axis
+                                            // (the same for all of the frame's tracks)
   std::uint32_t seed = 3;
 };
 
@@ -152,9 +156,13 @@ inline SyntheticSequence makeSyntheticSequence(const SyntheticOptions& o,
     frame.t_ns = fromSeconds(t);
     frame.T_W_B = poseAt(t);
     frame.visual.t_ns = frame.t_ns;
+    const Mat3 R_jitter =
+        o.vision_rotation_jitter_rad > 0.0
+            ? so3::exp(o.vision_rotation_jitter_rad * Vec3(gauss(rng), gauss(rng), gauss(rng)))
+            : Mat3::Identity();
     const SE3 T_C_W = (frame.T_W_B * T_B_C).inverse();
     for (std::size_t i = 0; i < points.size(); ++i) {
-      const Vec3 p_C = T_C_W * points[i];
+      const Vec3 p_C = R_jitter * (T_C_W * points[i]);
       const double d = p_C.norm();
       if (d < 0.3 || d > 12.0 || p_C.z() < -0.2 * d) continue;
       const auto px = camera::project(seq.setup.camera, p_C);
