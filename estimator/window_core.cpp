@@ -1269,15 +1269,9 @@ Trajectory WindowCore::trajectory() const {
 }
 
 Trajectory WindowCore::keyframes() const {
-  std::map<int, SE3> poses;
-  for (const auto& [id, p] : kf_poses_) poses[id] = p.body;
-  for (const auto& kf : map_.keyframes) poses[kf->id] = kf->bodyPose();
-  for (const auto& kf : map_.archive) poses[kf->id] = kf->bodyPose();
   Trajectory out;
-  for (const auto& [id, T] : poses) {
-    auto t = kf_times_.find(id);
-    if (t != kf_times_.end()) out.push_back({t->second, T});
-  }
+  for (const auto& [id, t_ns] : kf_times_)
+    if (auto T_W_B = keyframePose(id, true)) out.push_back({t_ns, *T_W_B});
   return out;
 }
 

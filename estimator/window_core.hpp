@@ -246,8 +246,8 @@ class WindowCore {
   struct KeyframePoses {
     SE3 vision, body;  // Keyframe::pose, Keyframe::bodyPose
   };
-  std::map<int, KeyframePoses>
-      kf_poses_;  // keyframe id -> poses when it left the window (or final)
+  // Keyframe id -> its poses when it left the window (or at the end).
+  std::map<int, KeyframePoses> kf_poses_;
   void keepPoses(const Keyframe& kf) { kf_poses_[kf.id] = {kf.pose(), kf.bodyPose()}; }
   std::map<int, Timestamp> kf_times_;
   std::vector<std::pair<Timestamp, Vec3>> bias_history_;
