@@ -25,6 +25,13 @@ void Keyframe::setPose(const SE3& T_W_B) {
   for (int i = 0; i < 3; ++i) p_W_B[i] = T_W_B.translation()[i];
 }
 
+void Keyframe::copyStates(const Keyframe& from) {
+  std::copy_n(from.q_W_B, 4, q_W_B);
+  std::copy_n(from.q_W_G, 4, q_W_G);
+  std::copy_n(from.p_W_B, 3, p_W_B);
+  std::copy_n(from.b_g, 3, b_g);
+}
+
 void Keyframe::setBias(const Vec3& b) {
   for (int i = 0; i < 3; ++i) b_g[i] = b[i];
 }

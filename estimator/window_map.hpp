@@ -76,6 +76,8 @@ struct Keyframe {
   SE3 pose() const;                // as the vision sees it: q_W_B, p_W_B
   SE3 bodyPose() const;            // the body's estimate: q_W_G, p_W_B (the output)
   void setPose(const SE3& T_W_B);  // sets q_W_G to the same orientation
+  /// Copies the states (q_W_B, q_W_G, p_W_B, b_g) of another keyframe, e.g. a batch copy's.
+  void copyStates(const Keyframe& from);
   Vec3 bias() const { return Vec3(b_g[0], b_g[1], b_g[2]); }
   void setBias(const Vec3& b);
 };

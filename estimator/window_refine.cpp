@@ -22,10 +22,7 @@ std::unique_ptr<Keyframe> batchCopy(const Keyframe& kf) {
   auto b = std::make_unique<Keyframe>();
   b->id = kf.id;
   b->t_ns = kf.t_ns;
-  std::copy_n(kf.q_W_B, 4, b->q_W_B);
-  std::copy_n(kf.q_W_G, 4, b->q_W_G);
-  std::copy_n(kf.p_W_B, 3, b->p_W_B);
-  std::copy_n(kf.b_g, 3, b->b_g);
+  b->copyStates(kf);
   b->preint_from_prev = kf.preint_from_prev;
   b->segment = kf.segment;
   b->zero_rate = kf.zero_rate;
@@ -251,11 +248,7 @@ RefineInfo refineKeyframes(const std::vector<Keyframe*>& keyframes,
     repropagateGyro(kfs);
   }
   info.usable = true;
-  for (std::size_t k = 0; k < keyframes.size(); ++k) {
-    keyframes[k]->setPose(kfs[k]->pose());
-    std::copy_n(kfs[k]->q_W_G, 4, keyframes[k]->q_W_G);
-    keyframes[k]->setBias(kfs[k]->bias());
-  }
+  for (std::size_t k = 0; k < keyframes.size(); ++k) keyframes[k]->copyStates(*kfs[k]);
   return info;
 }
 
