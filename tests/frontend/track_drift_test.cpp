@@ -144,12 +144,16 @@ DriftStats measureDrift(const std::vector<std::string>& frontend_sets) {
   return s;
 }
 
-// Mean error of one track step along the true flow (px), per band of true flow (0.5-1, 1-2 and
-// 2-4 px per frame), for ground points whose 6 px surroundings are all ground ("clean") and for
-// those next to a nearer or farther surface (a trunk, the canopy's underside, the sky: "edge").
+// Mean error of one track step along the true flow (px), per band of true flow (0.1-0.3, 0.3-0.5,
+// 0.5-1, 1-2 and 2-4 px per frame), for ground points whose 6 px surroundings are all ground
+// ("clean") and for those next to a nearer or farther surface (a trunk, the canopy's underside,
+// the sky: "edge").
+constexpr int kFlowBands = 5;
+constexpr double kFlowBandEdges[kFlowBands + 1] = {0.1, 0.3, 0.5, 1.0, 2.0, 4.0};
+
 struct StepBias {
-  double clean[3] = {}, edge[3] = {};
-  int clean_n[3] = {}, edge_n[3] = {};
+  double clean[kFlowBands] = {}, edge[kFlowBands] = {};
+  int clean_n[kFlowBands] = {}, edge_n[kFlowBands] = {};
 };
 
 StepBias measureStepBias() {
@@ -173,7 +177,9 @@ StepBias measureStepBias() {
           const Vec2 flow = *px - it->second.px;
           const Vec2 err = (o.px - it->second.px) - flow;
           const double f = flow.norm();
-          const int band = f < 0.5 ? -1 : f < 1.0 ? 0 : f < 2.0 ? 1 : f < 4.0 ? 2 : -1;
+          int band = -1;
+          for (int b = 0; b < kFlowBands; ++b)
+            if (f >= kFlowBandEdges[b] && f < kFlowBandEdges[b + 1]) band = b;
           if (band >= 0 && err.norm() < 1.5) {
             const double along = err.dot(flow / f);
             if (it->second.edge) {
@@ -194,15 +200,21 @@ StepBias measureStepBias() {
     }
     prev.swap(next);
   });
-  for (int b = 0; b < 3; ++b) {
+  for (int b = 0; b < kFlowBands; ++b) {
     if (out.clean_n[b]) out.clean[b] /= out.clean_n[b];
     if (out.edge_n[b]) out.edge[b] /= out.edge_n[b];
   }
   return out;
 }
 
-// The steps of clean ground tracks carry no bias along the flow (a sub-pixel estimator that
-// locks to integers would). Those next to a depth edge step +0.24 to +0.30 px further than their
+// The steps of clean ground tracks of half a pixel and more carry no bias along the flow. Under
+// half a pixel they fall short, as a sub-pixel estimator that locks to whole pixels does: the
+// parabola through three SSD samples (frontend.subpixel=cost) gives -0.032 and -0.035 px for
+// flows of 0.1-0.3 and 0.3-0.5 px, 9-16 % of such a flow (measured; subpixel=response -0.050
+// and -0.080, integer matching -0.030 and -0.053, the Lucas-Kanade step -0.010 and -0.012). That
+// under-measures the parallax of far, slow points; yet it is not what leaves pure_rotation's
+// scale 0.45 % short: the Lucas-Kanade step, with a third of the lock, leaves it at -0.49 %
+// (measured with ovo run). Those next to a depth edge step +0.24 to +0.30 px further than their
 // ground point every frame (measured; printed, not asserted): a temporary measurement put them
 // between the ground point's motion and the nearer surface's (median 0.7 of the way), so no
 // single point explains such a track. They are the far ground's whole flow bias; that tracks next
@@ -216,14 +228,17 @@ StepBias measureStepBias() {
 // camera's y axis, 41 with every track (measured with a temporary harness).
 TEST(TrackDrift, CleanGroundStepsAreUnbiasedAlongTheFlow) {
   const StepBias s = measureStepBias();
-  const char* band[3] = {"0.5-1", "1-2", "2-4"};
-  for (int b = 0; b < 3; ++b) {
+  const char* band[kFlowBands] = {"0.1-0.3", "0.3-0.5", "0.5-1", "1-2", "2-4"};
+  // Measured: -0.032, -0.035, +0.022, +0.003, +0.006 px. Under half a pixel the bound holds the
+  // lock to what it is now (the response mode's -0.08 px fails it).
+  const double bound[kFlowBands] = {0.05, 0.05, 0.04, 0.04, 0.04};
+  for (int b = 0; b < kFlowBands; ++b) {
     std::printf("flow %s px: clean %+.3f px (%d steps), next to a depth edge %+.3f px (%d)\n",
                 band[b], s.clean[b], s.clean_n[b], s.edge[b], s.edge_n[b]);
     RecordProperty(std::string("edge_bias_px_") + band[b], std::to_string(s.edge[b]));
-    ASSERT_GT(s.clean_n[b], 5000);
-    // Measured: +0.022, +0.003, +0.006 px.
-    EXPECT_LT(std::abs(s.clean[b]), 0.04) << band[b];
+    RecordProperty(std::string("clean_bias_px_") + band[b], std::to_string(s.clean[b]));
+    ASSERT_GT(s.clean_n[b], 4000);
+    EXPECT_LT(std::abs(s.clean[b]), bound[b]) << band[b];
   }
 }
 
