@@ -13,7 +13,7 @@ namespace {
 
 const ovo::test::SyntheticSequence& sequence() {
   static const ovo::test::SyntheticSequence seq = ovo::test::makeSyntheticSequence(
-      {}, std::filesystem::path(OVO_SHARED_DATA_DIR) / "romovi-fisheye-calib/calib_results.txt");
+      {}, std::filesystem::path(OVO_SOURCE_DIR) / "configs/cameras/romovi_ocam.txt");
   return seq;
 }
 

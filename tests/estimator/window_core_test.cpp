@@ -26,7 +26,8 @@ using test::SyntheticOptions;
 
 /// The RoMoVi fisheye when the shared data is there, else a pinhole.
 test::SyntheticSequence makeSyntheticSequence(const SyntheticOptions& o) {
-  return test::makeSyntheticSequence(o, test::sharedData("romovi-fisheye-calib/calib_results.txt"));
+  // The simulator's camera (the RoMoVi fisheye's calib_results.txt, kept in the repository).
+  return test::makeSyntheticSequence(o, test::sourcePath("configs/cameras/romovi_ocam.txt"));
 }
 using test::SyntheticSequence;
 

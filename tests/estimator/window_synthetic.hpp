@@ -66,8 +66,8 @@ inline double syntheticSpeed(const SyntheticOptions& o, double t) {
   return v;
 }
 
-/// `ocam_calibration`: the RoMoVi fisheye's calib_results.txt; an ideal 640x480 pinhole when
-/// the file does not exist.
+/// `ocam_calibration`: an OCamCalib file (the tests use the simulator's camera,
+/// configs/cameras/romovi_ocam.txt); an ideal 640x480 pinhole when the file does not exist.
 inline SyntheticSequence makeSyntheticSequence(const SyntheticOptions& o,
                                                const std::filesystem::path& ocam_calibration) {
   SyntheticSequence seq;
