@@ -24,9 +24,9 @@ namespace {
 
 using test::SyntheticOptions;
 
-/// The RoMoVi fisheye when the shared data is there, else a pinhole.
+/// Seen by the simulator's camera (the RoMoVi fisheye's calib_results.txt, kept in the
+/// repository).
 test::SyntheticSequence makeSyntheticSequence(const SyntheticOptions& o) {
-  // The simulator's camera (the RoMoVi fisheye's calib_results.txt, kept in the repository).
   return test::makeSyntheticSequence(o, test::sourcePath("configs/cameras/romovi_ocam.txt"));
 }
 using test::SyntheticSequence;

@@ -232,12 +232,13 @@ TEST(TrackDrift, CleanGroundStepsAreUnbiasedAlongTheFlow) {
   // Measured: -0.032, -0.035, +0.022, +0.003, +0.006 px. Under half a pixel the bound holds the
   // lock to what it is now (the response mode's -0.08 px fails it).
   const double bound[kFlowBands] = {0.05, 0.05, 0.04, 0.04, 0.04};
+  const int min_steps[kFlowBands] = {4000, 4000, 5000, 5000, 5000};  // measured 4606 and more
   for (int b = 0; b < kFlowBands; ++b) {
     std::printf("flow %s px: clean %+.3f px (%d steps), next to a depth edge %+.3f px (%d)\n",
                 band[b], s.clean[b], s.clean_n[b], s.edge[b], s.edge_n[b]);
     RecordProperty(std::string("edge_bias_px_") + band[b], std::to_string(s.edge[b]));
     RecordProperty(std::string("clean_bias_px_") + band[b], std::to_string(s.clean[b]));
-    ASSERT_GT(s.clean_n[b], 4000);
+    ASSERT_GT(s.clean_n[b], min_steps[b]);
     EXPECT_LT(std::abs(s.clean[b]), bound[b]) << band[b];
   }
 }
