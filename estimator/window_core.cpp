@@ -1081,9 +1081,12 @@ bool WindowCore::tryInitialize(const VisualFrame& frame, const SE3& T_W_B_pred,
         note("LiDAR scale ambiguous at an initialisation (two groups of range ratios): put off");
         return false;
       case Outcome::kForced:
+        note("LiDAR scale stayed ambiguous at an initialisation: the nearest surfaces");
+        break;
+      case Outcome::kOverruled:
         note(
-            "LiDAR scale stayed ambiguous at an initialisation: the group nearest the ground "
-            "plane, else the nearest surfaces");
+            "LiDAR range ratios disagreed with the ground plane at an initialisation: "
+            "ground-plane scale there");
         break;
       case Outcome::kTooFew:
         note("LiDAR associated too few points at an initialisation: ground-plane scale there");

@@ -191,11 +191,12 @@ LidarScaleVote voteLidarScale(std::vector<double> ratios, std::optional<double> 
     if ((2 * size(i) >= best_n || bigEnough(size(i))) && size(i) > ground_n &&
         agreesWithGround(median(i)))
       ground_n = size(i), ground_lo = i;
-  const bool tie = 2 * second_n >= best_n || (ground_n > 0 && bigEnough(ground_n) &&
-                                              !agreesWithGround(median(best_lo)));
+  const bool enough = bigEnough(best_n) && static_cast<int>(ratios.size()) >= min_associations &&
+                      best_n >= ratios.size() / 3;
+  const bool ground_disagrees = ground_scale && !agreesWithGround(median(best_lo));
+  const bool tie = 2 * second_n >= best_n || (ground_disagrees && (enough || ground_n > 0));
   if (!tie) {
-    if (bigEnough(best_n) && static_cast<int>(ratios.size()) >= min_associations &&
-        best_n >= ratios.size() / 3) {
+    if (enough) {
       vote.outcome = Outcome::kAgreed;
       vote.scale = median(best_lo);
     }
@@ -210,13 +211,15 @@ LidarScaleVote voteLidarScale(std::vector<double> ratios, std::optional<double> 
     vote.outcome = Outcome::kPutOff;
     return vote;
   }
-  double pick_dist = std::numeric_limits<double>::infinity();
-  for (std::size_t i = 0; i < ratios.size(); ++i) {
-    if (2 * size(i) < best_n) continue;
-    const double d = ground_scale ? std::abs(std::log(median(i) / *ground_scale)) : 0.0;
-    if (d < pick_dist) pick_dist = d, vote.scale = median(i);
-    if (!ground_scale) break;
+  if (ground_scale) {
+    vote.outcome = Outcome::kOverruled;
+    return vote;
   }
+  for (std::size_t i = 0; i < ratios.size(); ++i)
+    if (2 * size(i) >= best_n) {
+      vote.scale = median(i);
+      break;
+    }
   vote.outcome = Outcome::kForced;
   return vote;
 }

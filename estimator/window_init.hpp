@@ -84,15 +84,21 @@ class StandstillBias {
 /// distance of the track it lands next to). Ratios are grouped by agreement within 20 %: the
 /// largest group wins unless a group at least half its size disagrees with it (beams through a
 /// canopy gap onto the next row give a consistent wrong ratio), or the ground plane's scale
-/// disagrees with it while it agrees with a group of at least min_associations / 2. The ground
-/// plane settles such a tie; otherwise it is put off while allowed, else the group nearest the
-/// ground plane's scale, else the nearest surfaces (smallest ratio: a gap only reads too far).
+/// disagrees with it (beams that pass under a canopy's lower edge land next to the canopy's
+/// features and agree with each other on a ratio several times too large; with a narrow camera
+/// they can outnumber the beams on the ground). The ground plane settles such a tie with the
+/// largest group it agrees with, of at least half the largest's size or min_associations / 2;
+/// otherwise the tie is put off while allowed, then the ground plane's own scale is taken when
+/// there is one (the LiDAR is overruled), else the nearest surfaces (smallest ratio: a gap only
+/// reads too far).
 struct LidarScaleVote {
   enum class Outcome {
     kAgreed,         // the largest group, unchallenged
     kGroundSettled,  // a tie settled by the ground plane
     kPutOff,         // a tie: wait for a later frame
-    kForced,         // a tie that could not wait
+    kForced,         // a tie that could not wait, without a ground plane: the nearest surfaces
+    kOverruled,      // a tie that could not wait, no group agreeing with the ground plane: no
+                     // LiDAR scale, the ground plane's is to be used
     kTooFew,         // too few ratios, or no group big enough: no LiDAR scale
   };
   Outcome outcome = Outcome::kTooFew;

@@ -237,6 +237,29 @@ TEST(WindowCore, GyroGapAndDroppedFramesKeepTheTrajectoryContinuous) {
             0.05 * pathLength(seq));
 }
 
+TEST(WindowCore, BeamsUnderTheCanopyDoNotOutvoteTheGroundPlane) {
+  // Seen by a pinhole camera (an ideal 640x480 one, narrower than the fisheye), few beams that
+  // reach the ground land next to a track. At the initialisation of seeds 2 and 13, the beams that
+  // pass under the canopy slab's lower edge land next to its features and outvote them with a
+  // range ratio 2.3 times too large; only the ground plane and a beam or two disagree. When the
+  // ground plane needed a group of min_associations / 2 on its side, both drives ended 2.2-2.3
+  // times too far (5 m off after 4 m). 30 seeds now end within 2.1 % of the distance.
+  for (const std::uint32_t seed : {2u, 13u}) {
+    SCOPED_TRACE(seed);
+    SyntheticOptions o;
+    o.seed = seed;
+    const auto seq = test::makeSyntheticSequence(o, {});  // no calibration file: the pinhole
+    const auto r = run(seq);
+    expectAllFinite(r);
+    EXPECT_TRUE(noted(r, "put off"));
+    const SE3 T_true = truthRel(seq, seq.frames.size() - 1);
+    const SE3 T_est = r.trajectory.back().T_W_B;
+    EXPECT_NEAR(T_est.translation().norm() / T_true.translation().norm(), 1.0, 0.03);
+    EXPECT_LT((T_est.translation() - T_true.translation()).norm(), 0.03 * pathLength(seq));
+    EXPECT_GT(r.stats.lidar_keyframes, 0);
+  }
+}
+
 TEST(WindowCore, RecoversFromTrackingLossWithoutJumpingToTheOrigin) {
   SyntheticOptions o;
   o.duration_s = 7.0;

@@ -99,13 +99,35 @@ TEST(LidarScaleVote, TheGroundPlaneOverrulesALargerGroupItDisagreesWith) {
   ASSERT_TRUE(vote.scale.has_value());
   EXPECT_DOUBLE_EQ(*vote.scale, 0.103);  // median of 0.100 ... 0.104
   // A ground plane that agrees with the largest group leaves it be.
-  EXPECT_EQ(voteLidarScale(kPinholeRatios, 0.3, 8, true).outcome,
-            LidarScaleVote::Outcome::kAgreed);
-  // Too small a group cannot challenge it: three beams are not min_associations / 2.
+  EXPECT_EQ(voteLidarScale(kPinholeRatios, 0.3, 8, true).outcome, LidarScaleVote::Outcome::kAgreed);
+  // Three beams on the ground are too few to settle it (not min_associations / 2): put off.
   const std::vector<double> three(kPinholeRatios.begin() + 1, kPinholeRatios.end() - 1);
-  const auto small = voteLidarScale(three, 0.104, 8, true);
-  EXPECT_EQ(small.outcome, LidarScaleVote::Outcome::kAgreed);
-  EXPECT_GT(*small.scale, 0.25);
+  EXPECT_EQ(voteLidarScale(three, 0.104, 8, true).outcome, LidarScaleVote::Outcome::kPutOff);
+}
+
+// Range ratios seen at a pinhole camera's initialisation on the window tests' synthetic drive
+// (true scale 0.146): one beam on the ground agrees with the ground plane's 0.147; nine that pass
+// under the canopy slab's lower edge land next to its features and agree on about 0.35.
+const std::vector<double> kUnderCanopyRatios = {0.145, 0.298, 0.305, 0.321, 0.352,
+                                                0.353, 0.362, 0.365, 0.384, 0.411};
+
+TEST(LidarScaleVote, TheGroundPlaneAloneChallengesALargerGroupItDisagreesWith) {
+  // Without the ground plane the larger group wins (2.4 times the true scale).
+  EXPECT_EQ(voteLidarScale(kUnderCanopyRatios, std::nullopt, 8, true).outcome,
+            LidarScaleVote::Outcome::kAgreed);
+  // With it, no group big enough agrees with the ground: wait for a later frame ...
+  const auto wait = voteLidarScale(kUnderCanopyRatios, 0.147, 8, true);
+  EXPECT_EQ(wait.outcome, LidarScaleVote::Outcome::kPutOff);
+  EXPECT_FALSE(wait.scale.has_value());
+  // ... and when that is no longer allowed, the ground plane's scale, not the LiDAR's.
+  const auto overruled = voteLidarScale(kUnderCanopyRatios, 0.147, 8, false);
+  EXPECT_EQ(overruled.outcome, LidarScaleVote::Outcome::kOverruled);
+  EXPECT_FALSE(overruled.scale.has_value());
+  // A ground plane that agrees with the larger group leaves it be.
+  const auto agreed = voteLidarScale(kUnderCanopyRatios, 0.36, 8, true);
+  EXPECT_EQ(agreed.outcome, LidarScaleVote::Outcome::kAgreed);
+  ASSERT_TRUE(agreed.scale.has_value());
+  EXPECT_NEAR(*agreed.scale, 0.353, 0.01);
 }
 
 TEST(LidarScaleVote, ATieIsPutOffThenTheNearestSurfacesWin) {
@@ -115,10 +137,10 @@ TEST(LidarScaleVote, ATieIsPutOffThenTheNearestSurfacesWin) {
   EXPECT_EQ(forced.outcome, LidarScaleVote::Outcome::kForced);
   ASSERT_TRUE(forced.scale.has_value());
   EXPECT_NEAR(*forced.scale, 0.10, 0.002);
-  // With a ground plane that agrees with neither group, the nearer one to it.
-  const auto near_ground = voteLidarScale(tie, 0.2, 8, false);
-  EXPECT_EQ(near_ground.outcome, LidarScaleVote::Outcome::kForced);
-  EXPECT_NEAR(*near_ground.scale, 0.30, 0.006);
+  // With a ground plane that agrees with neither group, the ground plane's scale.
+  const auto neither = voteLidarScale(tie, 0.2, 8, false);
+  EXPECT_EQ(neither.outcome, LidarScaleVote::Outcome::kOverruled);
+  EXPECT_FALSE(neither.scale.has_value());
 }
 
 TEST(LidarScaleVote, TooFewRatiosGiveNoScale) {
@@ -126,6 +148,9 @@ TEST(LidarScaleVote, TooFewRatiosGiveNoScale) {
   const auto few = voteLidarScale({0.30, 0.31, 0.32, 0.9}, std::nullopt, 8, true);  // 3 < 8 / 2
   EXPECT_EQ(few.outcome, LidarScaleVote::Outcome::kTooFew);
   EXPECT_FALSE(few.scale.has_value());
+  // A ground plane that disagrees with too few ratios does not make a tie of them.
+  EXPECT_EQ(voteLidarScale({0.30, 0.31, 0.32, 0.9}, 0.1, 8, true).outcome,
+            LidarScaleVote::Outcome::kTooFew);
 }
 
 }  // namespace
