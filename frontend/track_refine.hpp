@@ -8,7 +8,9 @@
 // Far ground points (flows of 0.5-2 px) keep a bias of +4 to +8 % along the flow with or without
 // it, for any patch size: it comes from the points next to a depth edge, whose patches move partly
 // with the nearer surface (TrackDrift.CleanGroundStepsAreUnbiasedAlongTheFlow); this does not
-// fix them.
+// fix them. Nor is the ten-frame drift the steps' noise adding up: aligning each track's patch
+// from its first frame instead of the previous one (tried, not kept) left the median error after
+// ten frames at 0.40 px against 0.42 px with these steps (0.78 px without either).
 #pragma once
 
 #include <opencv2/core.hpp>
