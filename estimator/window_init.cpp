@@ -194,7 +194,8 @@ LidarScaleVote voteLidarScale(std::vector<double> ratios, std::optional<double> 
   const bool enough = bigEnough(best_n) && static_cast<int>(ratios.size()) >= min_associations &&
                       best_n >= ratios.size() / 3;
   const bool ground_disagrees = ground_scale && !agreesWithGround(median(best_lo));
-  const bool tie = 2 * second_n >= best_n || (ground_disagrees && (enough || ground_n > 0));
+  const bool tie = 2 * second_n >= best_n ||
+                   (ground_disagrees && (enough || (ground_n > 0 && bigEnough(ground_n))));
   if (!tie) {
     if (enough) {
       vote.outcome = Outcome::kAgreed;
