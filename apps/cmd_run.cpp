@@ -73,12 +73,18 @@ int runRun(const RunArgs& args) {
   Trajectory groundtruth = data.groundtruth;
   if (!args.gt.empty()) groundtruth = io::readGroundtruthFor(data, args.gt);
 
-  const estimator::SensorSetup setup = sensorSetupFrom(data);
+  estimator::SensorSetup setup = sensorSetupFrom(data);
+  // An estimator that uses the LiDAR may take the camera height from it when the rig gives none
+  // (vo, the plain camera chain, stays without).
+  std::vector<std::string> setup_notes;
+  if (args.estimator != "vo" && config.get<bool>(args.estimator + ".use_lidar", true))
+    if (auto note = cameraHeightFromScans(data, &setup)) setup_notes.push_back(*note);
   auto est = estimator::makeEstimator(args.estimator, setup, config);
   config.checkAllUsed();  // unknown keys are errors, before any work is done
   spdlog::info("ovo run: {} on {} ({} frames, {} gyro samples, {} scans, camera {})", est->name(),
                args.dataset, data.images.size(), data.imu.size(), data.scans.size(),
                camera::modelName(setup.camera));
+  for (const auto& note : setup_notes) spdlog::info("{}", note);
 
   std::unique_ptr<Viewer> viewer;
   if (args.viewer || !args.viewer_snapshot.empty()) {
@@ -158,7 +164,9 @@ int runRun(const RunArgs& args) {
     if (!allFinite(p.T_W_B))
       fail("internal error: the estimator produced a non-finite pose at t = {} ns", p.t_ns);
 
-  nlohmann::json metrics = computeRunMetrics(trajectory, groundtruth, est->stats(), timing);
+  estimator::EstimatorStats stats = est->stats();
+  stats.notes.insert(stats.notes.begin(), setup_notes.begin(), setup_notes.end());
+  nlohmann::json metrics = computeRunMetrics(trajectory, groundtruth, stats, timing);
   if (args.realtime) {
     metrics["realtime_rate"] = args.rate;
     metrics["timing"]["replay_lag_ms_max"] = replay_lag_ms_max;

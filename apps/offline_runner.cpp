@@ -1,5 +1,7 @@
 #include "apps/offline_runner.hpp"
 
+#include <fmt/format.h>
+
 #include <chrono>
 #include <condition_variable>
 #include <deque>
@@ -8,6 +10,7 @@
 #include <thread>
 
 #include "common/error.hpp"
+#include "estimator/lidar_ground.hpp"
 
 namespace ovo::app {
 namespace {
@@ -169,6 +172,18 @@ estimator::SensorSetup sensorSetupFrom(const io::Dataset& data) {
   s.has_gyro = !data.imu.empty();
   s.has_lidar = !data.scans.empty();
   return s;
+}
+
+std::optional<std::string> cameraHeightFromScans(const io::Dataset& data,
+                                                 estimator::SensorSetup* setup) {
+  if (setup->camera_height_m || data.scans.empty()) return std::nullopt;
+  const auto h = estimator::cameraHeightFromLidar(data.scans, setup->T_B_L, setup->T_B_C);
+  if (!h) return std::nullopt;
+  setup->camera_height_m = h->camera_height_m;
+  return fmt::format(
+      "camera height {:.3f} m measured from the LiDAR's ground hits ({} agreeing scans of {} "
+      "with ground hits, first {} scans): the rig gives none",
+      h->camera_height_m, h->scans_agreeing, h->scans_used, h->scans_seen);
 }
 
 OfflineRunResult runOffline(const io::Dataset& data, estimator::Estimator& est,

@@ -8,6 +8,8 @@
 #pragma once
 
 #include <functional>
+#include <optional>
+#include <string>
 #include <vector>
 
 #include "estimator/estimator.hpp"
@@ -41,5 +43,11 @@ OfflineRunResult runOffline(const io::Dataset& data, estimator::Estimator& est,
 
 /// The estimator's view of a dataset's sensors.
 estimator::SensorSetup sensorSetupFrom(const io::Dataset& data);
+
+/// When the rig gives no camera height and the LiDAR's first scans show the ground
+/// (estimator::cameraHeightFromLidar), sets setup->camera_height_m from them and returns a note
+/// saying so; nullopt (setup unchanged) otherwise.
+std::optional<std::string> cameraHeightFromScans(const io::Dataset& data,
+                                                 estimator::SensorSetup* setup);
 
 }  // namespace ovo::app
