@@ -1,20 +1,20 @@
-// The camera height measured from a pitched LiDAR's ground hits (cameraHeightFromLidar): scans
-// ray-cast in a vineyard inter-row (flat ground, canopy walls on both sides from 0.5 m up) with
-// the simulator's rig: body 0.3 m above the ground, LiDAR 0.45 m above the body pitched 8 degrees
-// down, camera 0.7 m above the body (a camera height of 1.0 m); and the simulator's own scans of
-// every scenario against its camera height.
+// The camera height measured from a pitched LiDAR's ground hits (cameraHeightFromLidar): the
+// window tests' synthetic vineyard scans (flat ground, canopy slabs on both sides from 0.5 m up)
+// with the simulator's rig: body 0.3 m above the ground, LiDAR 0.45 m above the body pitched 8
+// degrees down, camera 0.7 m above the body (a camera height of 1.0 m); and the simulator's own
+// scans of every scenario against its camera height.
 #include "estimator/lidar_ground.hpp"
 
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <functional>
-#include <limits>
 #include <random>
 #include <string>
 
 #include "common/config.hpp"
 #include "sim/simulation.hpp"
+#include "tests/estimator/window_synthetic.hpp"
 #include "tests/test_support.hpp"
 
 namespace ovo::estimator {
@@ -35,37 +35,19 @@ SE3 cameraInBody() {
   return T;
 }
 
-// One 270-degree scan of 0.5-degree beams: the ground at body z = -kBodyHeight and canopy walls
-// at y = +-wall_y (0.5 to 1.9 m above the ground); range noise of noise_m.
-LidarScan castScan(const SE3& T_B_L, double wall_y, double range_max_m, double noise_m,
-                   std::mt19937& rng) {
-  std::normal_distribution<double> noise(0.0, noise_m);
-  LidarScan scan;
-  scan.angle_min_rad = -0.75 * M_PI;
-  scan.angle_increment_rad = 0.5 * M_PI / 180.0;
-  scan.range_min_m = 0.1;
-  scan.range_max_m = range_max_m;
-  const Vec3 o = T_B_L.translation();
-  for (int i = 0; i <= 540; ++i) {
-    const double a = scan.angle_min_rad + i * scan.angle_increment_rad;
-    const Vec3 d = T_B_L.linear() * Vec3(std::cos(a), std::sin(a), 0.0);
-    double r = std::numeric_limits<double>::infinity();
-    if (d.z() < 0.0) r = (-kBodyHeight - o.z()) / d.z();
-    for (double y : {wall_y, -wall_y}) {
-      const double s = (y - o.y()) / d.y();
-      const double z = o.z() + s * d.z() + kBodyHeight;
-      if (s > 0.0 && z >= 0.5 && z <= 1.9) r = std::min(r, s);
-    }
-    scan.ranges_m.push_back(r <= range_max_m ? r + noise(rng)
-                                             : std::numeric_limits<double>::quiet_NaN());
-  }
-  return scan;
+// The synthetic vineyard's scan (window_synthetic.hpp) by a LiDAR at T_B_L on a body standing
+// kBodyHeight above the ground.
+LidarScan castScan(const SE3& T_B_L, double range_max_m, std::mt19937& rng) {
+  SE3 T_W_B = SE3::Identity();
+  T_W_B.translation().z() = kBodyHeight;
+  std::normal_distribution<double> gauss(0.0, 1.0);
+  return test::castSyntheticScan(T_W_B * T_B_L, 0, rng, gauss, range_max_m);
 }
 
 std::vector<LidarScan> castScans(const SE3& T_B_L, double range_max_m, int n = 20) {
   std::mt19937 rng(5);
   std::vector<LidarScan> scans;
-  for (int k = 0; k < n; ++k) scans.push_back(castScan(T_B_L, 1.25, range_max_m, 0.02, rng));
+  for (int k = 0; k < n; ++k) scans.push_back(castScan(T_B_L, range_max_m, rng));
   return scans;
 }
 
@@ -105,7 +87,7 @@ std::vector<LidarScan> shiftedScans(const SE3& T_B_L, const std::function<double
     SE3 T = T_B_L;
     T.translation().z() += shift(k);
     std::mt19937 rng(static_cast<unsigned>(k));
-    scans.push_back(castScan(T, 1.25, 12.0, 0.02, rng));
+    scans.push_back(castScan(T, 12.0, rng));
   }
   return scans;
 }

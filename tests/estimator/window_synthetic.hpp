@@ -66,6 +66,36 @@ inline double syntheticSpeed(const SyntheticOptions& o, double t) {
   return v;
 }
 
+/// One scan of the synthetic vineyard (canopy slabs at y = +-1.25 m, 0.5 to 1.9 m high, and the
+/// ground z = 0) by a LiDAR at T_W_L: 541 beams over 270 degrees, 2 cm of range noise (gauss, a
+/// standard normal, drawn for each beam that hits); a beam that hits nothing within range_max_m
+/// reads 0 (invalid).
+inline LidarScan castSyntheticScan(const SE3& T_W_L, Timestamp t_ns, std::mt19937& rng,
+                                   std::normal_distribution<double>& gauss,
+                                   double range_max_m = 12.0) {
+  LidarScan scan;
+  scan.t_ns = t_ns;
+  scan.angle_min_rad = -135.0 * M_PI / 180.0;
+  scan.angle_increment_rad = 0.5 * M_PI / 180.0;
+  scan.range_min_m = 0.1;
+  scan.range_max_m = range_max_m;
+  const Vec3 o_W = T_W_L.translation();
+  for (int b = 0; b <= 540; ++b) {
+    const double a = scan.angle_min_rad + b * scan.angle_increment_rad;
+    const Vec3 d_W = T_W_L.linear() * Vec3(std::cos(a), std::sin(a), 0.0);
+    double best = 1e9;
+    for (int side = -1; side <= 1; side += 2) {  // canopy slabs
+      if (std::abs(d_W.y()) < 1e-9) continue;
+      const double s = (side * 1.25 - o_W.y()) / d_W.y();
+      const double z = o_W.z() + s * d_W.z();
+      if (s > 0 && z > 0.5 && z < 1.9) best = std::min(best, s);
+    }
+    if (d_W.z() < -1e-9) best = std::min(best, -o_W.z() / d_W.z());  // ground
+    scan.ranges_m.push_back(best <= range_max_m ? best + 0.02 * gauss(rng) : 0.0);
+  }
+  return scan;
+}
+
 /// `ocam_calibration`: an OCamCalib file (the tests use the simulator's camera,
 /// configs/cameras/romovi_ocam.txt); an ideal 640x480 pinhole when the file does not exist.
 inline SyntheticSequence makeSyntheticSequence(const SyntheticOptions& o,
@@ -182,28 +212,8 @@ inline SyntheticSequence makeSyntheticSequence(const SyntheticOptions& o,
       frame.visual.observations.push_back({static_cast<estimator::TrackId>(i), noisy, *b, age});
     }
     if (f % 2 == 0) {
-      LidarScan scan;
-      scan.t_ns = fromSeconds(t + o.lidar_delay_s);
-      scan.angle_min_rad = -135.0 * M_PI / 180.0;
-      scan.angle_increment_rad = 0.5 * M_PI / 180.0;
-      scan.range_min_m = 0.1;
-      scan.range_max_m = 12.0;
-      const SE3 T_W_L = poseAt(t + o.lidar_delay_s) * seq.setup.T_B_L;
-      for (int b = 0; b <= 540; ++b) {
-        const double a = scan.angle_min_rad + b * scan.angle_increment_rad;
-        const Vec3 o_W = T_W_L.translation();
-        const Vec3 d_W = T_W_L.linear() * Vec3(std::cos(a), std::sin(a), 0.0);
-        double best = 1e9;
-        for (int side = -1; side <= 1; side += 2) {  // canopy slabs
-          if (std::abs(d_W.y()) < 1e-9) continue;
-          const double s = (side * 1.25 - o_W.y()) / d_W.y();
-          const double z = o_W.z() + s * d_W.z();
-          if (s > 0 && z > 0.5 && z < 1.9) best = std::min(best, s);
-        }
-        if (d_W.z() < -1e-9) best = std::min(best, -o_W.z() / d_W.z());  // ground
-        scan.ranges_m.push_back(best <= 12.0 ? best + 0.02 * gauss(rng) : 0.0);
-      }
-      seq.scans.push_back(scan);
+      seq.scans.push_back(castSyntheticScan(poseAt(t + o.lidar_delay_s) * seq.setup.T_B_L,
+                                            fromSeconds(t + o.lidar_delay_s), rng, gauss));
     }
     seq.frames.push_back(std::move(frame));
   }
