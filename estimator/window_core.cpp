@@ -176,9 +176,9 @@ const LidarScan* WindowCore::scanAt(Timestamp t_ns) const {
   return best;
 }
 
-std::optional<WindowCore::FrameScan> WindowCore::scanFor(Timestamp t_ns, const SE3& T_W_B) const {
+std::optional<WindowCore::ScanChoice> WindowCore::chooseScan(Timestamp t_ns) const {
   if (!use_lidar_) return std::nullopt;
-  if (const LidarScan* s = scanAt(t_ns)) return FrameScan{s, setup_.T_B_L};
+  if (const LidarScan* s = scanAt(t_ns)) return ScanChoice{s, std::nullopt};
   if (!(options_.lidar_scan_max_age_s > 0.0) || !use_gyro_) return std::nullopt;
   const LidarScan* latest = nullptr;  // the latest scan before the frame, within the age
   for (const LidarScan& s : scans_)
@@ -186,6 +186,14 @@ std::optional<WindowCore::FrameScan> WindowCore::scanFor(Timestamp t_ns, const S
   if (latest == nullptr) return std::nullopt;
   const auto pi = preintegrate(latest->t_ns, t_ns, bias_);
   if (!pi || pi->status() != factors::GyroPreintegration::Status::kOk) return std::nullopt;
+  return ScanChoice{latest, pi->deltaR()};
+}
+
+std::optional<WindowCore::FrameScan> WindowCore::scanFor(Timestamp t_ns, const SE3& T_W_B) const {
+  const auto choice = chooseScan(t_ns);
+  if (!choice) return std::nullopt;
+  if (!choice->R_Bscan_Bframe) return FrameScan{choice->scan, setup_.T_B_L};
+  const LidarScan* latest = choice->scan;
   // Body at the scan seen from the body at the frame: turned back by the gyro's rotation over the
   // gap; its position interpolated between the two frames around the scan (this frame's and the
   // recorded ones), else moved back by the velocity.
@@ -202,7 +210,7 @@ std::optional<WindowCore::FrameScan> WindowCore::scanFor(Timestamp t_ns, const S
     p1 = it->T_W_B.translation();
   }
   SE3 T_Bt_Bs = SE3::Identity();
-  T_Bt_Bs.linear() = pi->deltaR().transpose();
+  T_Bt_Bs.linear() = choice->R_Bscan_Bframe->transpose();
   T_Bt_Bs.translation() = T_W_B.linear().transpose() * (p_W_scan - T_W_B.translation());
   return FrameScan{latest, T_Bt_Bs * setup_.T_B_L};
 }

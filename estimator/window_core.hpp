@@ -97,15 +97,21 @@ class WindowCore {
     SE3 T_B_L = SE3::Identity();
   };
   std::optional<FrameScan> scanFor(Timestamp t_ns, const SE3& T_W_B) const;
+  /// Which scan scanFor takes for the frame at t_ns, without placing it: the scan at the frame
+  /// (R_Bscan_Bframe nullopt), or the older one with the gyro's rotation over the gap
+  /// (preintegrated from the scan to the frame). nullopt: none.
+  struct ScanChoice {
+    const LidarScan* scan = nullptr;
+    std::optional<Mat3> R_Bscan_Bframe;
+  };
+  std::optional<ScanChoice> chooseScan(Timestamp t_ns) const;
   /// Whether the frame after the one at t_ns (one frame period on) is expected to come with a
   /// scan (within lidar_scan_time_tol_s): the first buffered scan after t_ns, or else the last
   /// scan plus the last scan period, falls on it.
   bool scanExpectedAfter(Timestamp t_ns) const;
   /// A frame a two-view reference may start at: with the LiDAR, one with a scan (both views then
   /// give range ratios for the scale).
-  bool canReference(Timestamp t_ns) const {
-    return !use_lidar_ || scanFor(t_ns, SE3::Identity()).has_value();
-  }
+  bool canReference(Timestamp t_ns) const { return !use_lidar_ || chooseScan(t_ns).has_value(); }
   bool tryInitialize(const VisualFrame& frame, const SE3& T_W_B_pred, FrameEstimate* out);
   void startReference(const VisualFrame& frame, const SE3& T_W_B);
   // Before initialisation: the frame's rotation, the gyro's (in T_W_B_pred), else the two-view
