@@ -652,7 +652,7 @@ Keyframe* WindowCore::addKeyframe(Timestamp t_ns, const SE3& T_W_B, const Vec3& 
   const std::vector<TrackObservation> observations =
       keep == nullptr && near_ids.empty() ? candidates
                                           : selectSpread(candidates, keep_ids, near_ids, options_);
-  auto kf = std::make_unique<Keyframe>();
+  auto kf = std::make_unique<Keyframe>(scan ? scan->T_B_L : setup_.T_B_L);
   kf->id = next_kf_id_++;
   kf->t_ns = t_ns;
   kf->setPose(T_W_B);
@@ -666,7 +666,6 @@ Keyframe* WindowCore::addKeyframe(Timestamp t_ns, const SE3& T_W_B, const Vec3& 
     if (auto pi = preintegrate(prev.t_ns, t_ns, prev.bias()))
       kf->preint_from_prev = std::make_shared<factors::GyroPreintegration>(std::move(*pi));
   }
-  kf->T_B_L = scan ? scan->T_B_L : setup_.T_B_L;
   if (scan) kf->scan = *scan->scan;
   kf_times_[kf->id] = t_ns;
   ++stats_.keyframes;

@@ -44,8 +44,11 @@ struct LidarAssociation {
                                     // ground plane up_L . p_L = range_m (lidar_ground_beams plane)
 };
 
-/// A keyframe: its states (Ceres blocks) and what it observed.
+/// A keyframe: its states (Ceres blocks) and what it observed. Made with the LiDAR's pose for
+/// its scan (T_B_L below), so that no copy of a keyframe can leave it behind.
 struct Keyframe {
+  explicit Keyframe(const SE3& lidar_pose_B) : T_B_L(lidar_pose_B) {}
+
   int id = 0;  // increasing over the run
   Timestamp t_ns = 0;
   double q_W_B[4] = {0, 0, 0, 1};  // x, y, z, w
@@ -62,8 +65,9 @@ struct Keyframe {
   std::unordered_set<TrackId> lidar_rejected;      // associations removed as outliers: not again
   std::optional<LidarScan> scan;
   /// The LiDAR's pose when it took `scan`, in this keyframe's body frame: the rig's T_B_L for a
-  /// scan at the keyframe's time, moved by the motion in between for an earlier one.
-  SE3 T_B_L = SE3::Identity();
+  /// scan at the keyframe's time, moved by the motion in between for an earlier one (the rig's
+  /// T_B_L without a scan).
+  SE3 T_B_L;
   int segment = 0;  // increases at every re-initialisation after a tracking loss
   /// Zero-rate update from a standstill after this keyframe: the bias measured as the mean gyro
   /// rate of the still frames (a bias prior factor while the keyframe is in the window).

@@ -19,14 +19,13 @@ constexpr double kSegmentSigmaRad = 1e-3;
 
 /// A batch copy of a keyframe: the same states and factors, observations keyed by landmark piece.
 std::unique_ptr<Keyframe> batchCopy(const Keyframe& kf) {
-  auto b = std::make_unique<Keyframe>();
+  auto b = std::make_unique<Keyframe>(kf.T_B_L);  // the LiDAR factors' pose of the scan
   b->id = kf.id;
   b->t_ns = kf.t_ns;
   b->copyStates(kf);
   b->preint_from_prev = kf.preint_from_prev;
   b->segment = kf.segment;
   b->zero_rate = kf.zero_rate;
-  b->T_B_L = kf.T_B_L;  // the LiDAR factors' pose of the scan (Keyframe::T_B_L)
   return b;
 }
 

@@ -21,7 +21,7 @@ WindowMap threeKeyframesOneLandmark() {
   WindowMap map;
   const Vec3 p_W(0.3, -0.2, 5.0);
   for (int k = 0; k < 3; ++k) {
-    auto kf = std::make_unique<Keyframe>();
+    auto kf = std::make_unique<Keyframe>(SE3::Identity());  // no LiDAR in this problem
     kf->id = 10 + k;
     kf->t_ns = k * 500'000'000LL;
     SE3 T = SE3::Identity();
