@@ -251,22 +251,42 @@ bool MarginalizationInfo::marginalize() {
 }
 
 std::shared_ptr<const MarginalizationInfo> MarginalizationInfo::scaledPositions(
-    const std::vector<const double*>& position_blocks, const Eigen::Vector3d& centre,
-    double s) const {
+    const std::vector<const double*>& position_blocks, const Eigen::Vector3d& centre, double s,
+    const std::vector<const double*>& terrain_blocks) const {
   auto out = std::make_shared<MarginalizationInfo>(*this);
+  const auto listed = [](const std::vector<const double*>& list, const double* block) {
+    return std::find(list.begin(), list.end(), block) != list.end();
+  };
+  // x' = M x + k for positions (M = s I) and terrain planes (slopes kept, the height at the
+  // centre scaled). The prior r = S dx + e0 in dx' = M dx: the block's columns of S (and of H
+  // with its rows, and b) times M^-1.
   int offset = 0;
   for (double* kept : kept_) {
     Block& b = out->blocks_.at(kept);
-    const bool scaled =
-        !b.quaternion && b.ambient == 3 &&
-        std::find(position_blocks.begin(), position_blocks.end(), kept) != position_blocks.end();
-    if (scaled) {
-      for (int k = 0; k < 3; ++k) b.x0[k] = centre[k] + s * (b.x0[k] - centre[k]);
-      // r = S dx + e0 with dx = x' / s - x0 / s: the columns of S over s (and H, b with them).
-      out->S_.middleCols(offset, 3) /= s;
-      out->H_prior_.middleCols(offset, 3) /= s;
-      out->H_prior_.middleRows(offset, 3) /= s;
-      out->b_prior_.segment(offset, 3) /= s;
+    const bool vec3 = !b.quaternion && b.ambient == 3;
+    Eigen::Matrix3d M = Eigen::Matrix3d::Identity();
+    Eigen::Vector3d k = Eigen::Vector3d::Zero();
+    bool mapped = false;
+    if (vec3 && listed(position_blocks, kept)) {
+      M *= s;
+      k = (1.0 - s) * centre;
+      mapped = true;
+    } else if (vec3 && listed(terrain_blocks, kept)) {
+      M.row(2) << (s - 1.0) * centre.x(), (s - 1.0) * centre.y(), s;
+      k.z() = (1.0 - s) * centre.z();
+      mapped = true;
+    }
+    if (mapped) {
+      const Eigen::Map<Eigen::Vector3d> x0(b.x0.data());
+      const Eigen::Vector3d moved = M * x0 + k;
+      std::copy_n(moved.data(), 3, b.x0.data());
+      const Eigen::Matrix3d Minv = M.inverse();
+      out->S_.middleCols(offset, 3) = (out->S_.middleCols(offset, 3) * Minv).eval();
+      out->H_prior_.middleCols(offset, 3) = (out->H_prior_.middleCols(offset, 3) * Minv).eval();
+      out->H_prior_.middleRows(offset, 3) =
+          (Minv.transpose() * out->H_prior_.middleRows(offset, 3)).eval();
+      out->b_prior_.segment(offset, 3) =
+          (Minv.transpose() * out->b_prior_.segment(offset, 3)).eval();
     }
     offset += b.tangent;
   }

@@ -60,10 +60,12 @@ class MarginalizationInfo {
   /// 3-vectors) maps x -> centre + s (x - centre). The copy holds the same shape at s times the
   /// size: its linearisation point moves with the states and its Jacobian columns of those
   /// blocks are divided by s, so at the scaled states it has the residual this one has at the
-  /// old ones. Blocks not kept, or not 3-vectors, are ignored.
+  /// old ones. Each of `terrain_blocks` (kept terrain planes z = a x + b y + c,
+  /// factors/terrain_plane_factor.hpp) keeps its slopes, and its height over the centre scales
+  /// by s, as factors::scaleTerrain. Blocks not kept, or not 3-vectors, are ignored.
   std::shared_ptr<const MarginalizationInfo> scaledPositions(
-      const std::vector<const double*>& position_blocks, const Eigen::Vector3d& centre,
-      double s) const;
+      const std::vector<const double*>& position_blocks, const Eigen::Vector3d& centre, double s,
+      const std::vector<const double*>& terrain_blocks = {}) const;
 
  private:
   struct Block {

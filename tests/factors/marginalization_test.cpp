@@ -11,6 +11,7 @@
 #include "factors/gyro_preintegration.hpp"
 #include "factors/lidar_range_factor.hpp"
 #include "factors/pose_prior_factor.hpp"
+#include "factors/terrain_plane_factor.hpp"
 #include "tests/factors/factor_test_util.hpp"
 
 namespace ovo::factors {
@@ -431,6 +432,49 @@ TEST_F(NonlinearWindow, ScaledPriorHasTheSameResidualAtTheScaledPositions) {
   testing::expectJacobiansMatch(MarginalizationFactor(scaled), values_scaled, is_quat, 1e-6);
   // The unscaled prior at the scaled positions is far off: the residual check is not vacuous.
   EXPECT_GT((testing::evaluate(MarginalizationFactor(info), values_scaled) - r).norm(), 1e-3);
+}
+
+TEST_F(NonlinearWindow, ScaledPriorMapsTerrainPlanesAsTheirPointsScale) {
+  // A kept 3-vector taken as a terrain plane (the prior does not know what its blocks mean): at
+  // the scaled positions and the plane scaled as factors::scaleTerrain (slopes kept, height over
+  // the centre times s) the scaled prior has the old residual.
+  const auto info = marginalizeKeyframe0();
+  ASSERT_TRUE(info);
+  const Vec3 centre(0.3, -0.2, 0.1);
+  const double s = 0.8;
+  const std::vector<const double*> positions = {p_[1].data(), p_[2].data()};
+  const std::vector<const double*> terrains = {b_[1].data()};
+  const auto scaled = info->scaledPositions(positions, centre, s, terrains);
+  std::vector<std::vector<double>> values, values_scaled;
+  ceres::EigenQuaternionManifold qm;
+  std::mt19937 rng(34);
+  for (double* p : info->keptBlocks()) {
+    std::vector<double> v = info->linearizationPoint(p);
+    if (isQuat(p)) {
+      const Vec3 d = testing::randomVec(rng, 0.1);
+      std::vector<double> out(4);
+      qm.Plus(v.data(), d.data(), out.data());
+      v = out;
+    } else {
+      for (double& x : v) x += 0.05;
+    }
+    values.push_back(v);
+    if (p == p_[1].data() || p == p_[2].data())
+      for (int k = 0; k < 3; ++k) v[k] = centre[k] + s * (v[k] - centre[k]);
+    if (p == b_[1].data()) scaleTerrain(v.data(), centre, s);
+    values_scaled.push_back(v);
+  }
+  ASSERT_TRUE(std::find(info->keptBlocks().begin(), info->keptBlocks().end(), b_[1].data()) !=
+              info->keptBlocks().end());
+  const Eigen::VectorXd r = testing::evaluate(MarginalizationFactor(info), values);
+  const Eigen::VectorXd r_scaled = testing::evaluate(MarginalizationFactor(scaled), values_scaled);
+  EXPECT_GT(r.norm(), 1e-3);
+  EXPECT_LT((r - r_scaled).norm(), 1e-9 * std::max(1.0, r.norm()));
+  // Not mapping the plane leaves its height over the centre unscaled: another residual.
+  const auto positions_only = info->scaledPositions(positions, centre, s);
+  const Eigen::VectorXd r_unmapped =
+      testing::evaluate(MarginalizationFactor(positions_only), values_scaled);
+  EXPECT_GT((r - r_unmapped).norm(), 1e-6);
 }
 
 }  // namespace
