@@ -8,6 +8,7 @@
 #include "common/so3.hpp"
 #include "estimator/window_lidar.hpp"
 #include "estimator/window_refine.hpp"
+#include "factors/terrain_plane_factor.hpp"
 #include "frontend/triangulation.hpp"
 
 namespace ovo::estimator {
@@ -128,6 +129,9 @@ WindowCore::WindowCore(const SensorSetup& setup, const WindowOptions& options,
   if (options.use_ground_height && setup.camera_height_m && *setup.camera_height_m > 0.0) {
     model_.camera_height_m = *setup.camera_height_m;
     model_.ground_sigma_m = options.ground_height_sigma_m;
+    model_.terrain_planes = options.terrain_planes;
+    model_.terrain_slope_walk = options.terrain_slope_walk;
+    model_.terrain_height_walk = options.terrain_height_walk;
   }
   if (!use_gyro_) note("no gyro: vision-only rotation (8-point initialisation, no gyro factors)");
   if (!use_lidar_) {
@@ -805,16 +809,20 @@ bool WindowCore::rescaleToLidar() {
   const double s = 1.0 / *ratio;
   // About the oldest keyframe: the trajectory before the window stays where it is.
   const Vec3 centre = map_.keyframes.front()->pose().translation();
-  std::vector<const double*> positions;
+  std::vector<const double*> positions, terrains;
   for (auto& kf : map_.keyframes) {
     Eigen::Map<Vec3> p(kf->p_W_B);
     p = centre + s * (p - centre);
     positions.push_back(kf->p_W_B);
+    terrains.push_back(kf->terrain);
     kf->lidar_rejected.clear();  // rejected at the wrong scale
   }
   for (auto& [id, lm] : map_.landmarks) lm.rho[0] /= s;
+  for (auto& kf : map_.keyframes)
+    if (kf->terrain_set) factors::scaleTerrain(kf->terrain, centre, s);
   if (gauge_.marginalization)
-    gauge_.marginalization = gauge_.marginalization->scaledPositions(positions, centre, s);
+    gauge_.marginalization =
+        gauge_.marginalization->scaledPositions(positions, centre, s, terrains);
   if (map_.find(gauge_.kf_id) != nullptr)  // a pose prior on a keyframe of the window moves too
     gauge_.T_W_B.translation() = centre + s * (gauge_.T_W_B.translation() - centre);
   velocity_W_ *= s;
@@ -825,6 +833,7 @@ bool WindowCore::rescaleToLidar() {
 void WindowCore::solveWindow() {
   const auto t0 = std::chrono::steady_clock::now();
   auto kfs = windowKeyframes();
+  seedTerrain(kfs, model_);
   auto factors = buildFactors(kfs, map_.landmarks, model_, gauge_);
   last_solve_ = {};
   last_solve_.keyframes = static_cast<int>(kfs.size());

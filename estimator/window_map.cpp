@@ -30,6 +30,8 @@ void Keyframe::copyStates(const Keyframe& from) {
   std::copy_n(from.q_W_G, 4, q_W_G);
   std::copy_n(from.p_W_B, 3, p_W_B);
   std::copy_n(from.b_g, 3, b_g);
+  std::copy_n(from.terrain, 3, terrain);
+  terrain_set = from.terrain_set;
 }
 
 void Keyframe::setBias(const Vec3& b) {

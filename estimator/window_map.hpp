@@ -57,6 +57,10 @@ struct Keyframe {
   double q_W_G[4] = {0, 0, 0, 1};
   double p_W_B[3] = {0, 0, 0};
   double b_g[3] = {0, 0, 0};
+  /// The terrain under the keyframe, z = a x + b y + c in W (factors/terrain_plane_factor.hpp);
+  /// seeded by seedTerrain (terrain_set) before its first solve.
+  double terrain[3] = {0, 0, 0};
+  bool terrain_set = false;
   std::unordered_map<TrackId, TrackObservation> observations;
   /// Gyro preintegration from the previous keyframe of the same segment (null: none / no gyro).
   std::shared_ptr<factors::GyroPreintegration> preint_from_prev;
@@ -80,7 +84,8 @@ struct Keyframe {
   SE3 pose() const;                // as the vision sees it: q_W_B, p_W_B
   SE3 bodyPose() const;            // the body's estimate: q_W_G, p_W_B (the output)
   void setPose(const SE3& T_W_B);  // sets q_W_G to the same orientation
-  /// Copies the states (q_W_B, q_W_G, p_W_B, b_g) of another keyframe, e.g. a batch copy's.
+  /// Copies the states (q_W_B, q_W_G, p_W_B, b_g, terrain) of another keyframe, e.g. a batch
+  /// copy's.
   void copyStates(const Keyframe& from);
   Vec3 bias() const { return Vec3(b_g[0], b_g[1], b_g[2]); }
   void setBias(const Vec3& b);

@@ -119,6 +119,10 @@ WindowOptions readWindowOptions(const Config& c) {
   o.marginalize_max_landmarks =
       c.getIntInRange(p + "marginalize_max_landmarks", o.marginalize_max_landmarks, 0, 100000);
   o.use_ground_height = c.get<bool>(p + "use_ground_height", o.use_ground_height);
+  o.terrain_planes = c.get<bool>(p + "terrain_planes", o.terrain_planes);
+  o.terrain_slope_walk = c.getInRange(p + "terrain_slope_walk", o.terrain_slope_walk, 1e-6, 10.0);
+  o.terrain_height_walk =
+      c.getInRange(p + "terrain_height_walk", o.terrain_height_walk, 1e-6, 10.0);
   o.ground_height_sigma_m =
       c.getInRange(p + "ground_height_sigma_m", o.ground_height_sigma_m, 1e-4, 10.0);
   o.ground_max_distance_heights =

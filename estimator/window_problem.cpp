@@ -13,6 +13,7 @@
 #include "factors/parameterization.hpp"
 #include "factors/pose_prior_factor.hpp"
 #include "factors/rotation_tie_factor.hpp"
+#include "factors/terrain_plane_factor.hpp"
 
 namespace ovo::estimator {
 namespace {
@@ -34,6 +35,25 @@ double* gyroRotation(Keyframe& kf, const WindowModel& model) {
 }
 
 }  // namespace
+
+bool usesTerrain(const WindowModel& model) {
+  return model.terrain_planes && model.camera_height_m > 0.0;
+}
+
+void seedTerrain(const std::vector<Keyframe*>& keyframes, const WindowModel& model) {
+  if (!usesTerrain(model)) return;
+  const Keyframe* prev = nullptr;
+  for (Keyframe* kf : keyframes) {
+    if (!kf->terrain_set) {
+      if (prev != nullptr)
+        std::copy_n(prev->terrain, 3, kf->terrain);
+      else
+        factors::terrainBelow(kf->pose(), model.T_B_C, model.camera_height_m, kf->terrain);
+      kf->terrain_set = true;
+    }
+    prev = kf;
+  }
+}
 
 std::vector<FactorSpec> buildFactors(const std::vector<Keyframe*>& keyframes,
                                      std::unordered_map<TrackId, Landmark>& landmarks,
@@ -73,6 +93,36 @@ std::vector<FactorSpec> buildFactors(const std::vector<Keyframe*>& keyframes,
       f.track = id;
       f.kf_id = kf->id;
       out.push_back(std::move(f));
+    }
+  }
+  if (usesTerrain(model)) {
+    for (auto& [id, lm] : landmarks) {
+      auto a = kf_of.find(lm.anchor_kf);
+      if (!lm.on_ground || a == kf_of.end() || !a->second->terrain_set || !(lm.rho[0] > 0.0))
+        continue;
+      FactorSpec f;
+      f.kind = FactorKind::kTerrain;
+      f.cost = std::make_unique<factors::TerrainPointFactor>(lm.bearing_anchor_C, model.T_B_C,
+                                                             model.ground_sigma_m);
+      f.loss = std::make_unique<ceres::HuberLoss>(model.ground_huber);
+      f.blocks = {a->second->q_W_B, a->second->p_W_B, lm.rho, a->second->terrain};
+      f.track = id;
+      f.kf_id = lm.anchor_kf;
+      out.push_back(std::move(f));
+    }
+    for (std::size_t k = 1; k < keyframes.size(); ++k) {
+      Keyframe* i = keyframes[k - 1];
+      Keyframe* j = keyframes[k];
+      if (!i->terrain_set || !j->terrain_set) continue;
+      const Vec3 ci = i->pose() * model.T_B_C.translation();
+      const Vec3 cj = j->pose() * model.T_B_C.translation();
+      FactorSpec w;
+      w.kind = FactorKind::kTerrain;
+      w.cost = std::make_unique<factors::TerrainWalkFactor>(
+          0.5 * (ci + cj), (cj - ci).norm(), model.terrain_slope_walk, model.terrain_height_walk);
+      w.blocks = {i->terrain, j->terrain};
+      w.kf_id = j->id;
+      out.push_back(std::move(w));
     }
   }
   if (model.camera_height_m > 0.0) {
@@ -205,7 +255,7 @@ SolveSummary solveFactors(std::vector<FactorSpec> factors, const std::vector<Key
 
   // Backup for a diverged solve.
   struct KfBackup {
-    double q[4], g[4], p[3], b[3];
+    double q[4], g[4], p[3], b[3], terrain[3];
   };
   std::vector<KfBackup> kf_backup(keyframes.size());
   for (std::size_t k = 0; k < keyframes.size(); ++k) {
@@ -213,6 +263,7 @@ SolveSummary solveFactors(std::vector<FactorSpec> factors, const std::vector<Key
     std::copy_n(keyframes[k]->q_W_G, 4, kf_backup[k].g);
     std::copy_n(keyframes[k]->p_W_B, 3, kf_backup[k].p);
     std::copy_n(keyframes[k]->b_g, 3, kf_backup[k].b);
+    std::copy_n(keyframes[k]->terrain, 3, kf_backup[k].terrain);
   }
   std::unordered_map<TrackId, double> rho_backup;
   for (const auto& [id, lm] : landmarks) rho_backup[id] = lm.rho[0];
@@ -263,7 +314,8 @@ SolveSummary solveFactors(std::vector<FactorSpec> factors, const std::vector<Key
     finite = finite &&
              std::isfinite(kf->q_W_B[0] + kf->q_W_B[1] + kf->q_W_B[2] + kf->q_W_B[3] +
                            kf->p_W_B[0] + kf->p_W_B[1] + kf->p_W_B[2] + kf->b_g[0] + kf->b_g[1] +
-                           kf->b_g[2] + kf->q_W_G[0] + kf->q_W_G[1] + kf->q_W_G[2] + kf->q_W_G[3]);
+                           kf->b_g[2] + kf->terrain[0] + kf->terrain[1] + kf->terrain[2] +
+                           kf->q_W_G[0] + kf->q_W_G[1] + kf->q_W_G[2] + kf->q_W_G[3]);
   for (const auto& [id, lm] : landmarks) finite = finite && std::isfinite(lm.rho[0]);
   if (!finite) {
     for (std::size_t k = 0; k < keyframes.size(); ++k) {
@@ -271,6 +323,7 @@ SolveSummary solveFactors(std::vector<FactorSpec> factors, const std::vector<Key
       std::copy_n(kf_backup[k].g, 4, keyframes[k]->q_W_G);
       std::copy_n(kf_backup[k].p, 3, keyframes[k]->p_W_B);
       std::copy_n(kf_backup[k].b, 3, keyframes[k]->b_g);
+      std::copy_n(kf_backup[k].terrain, 3, keyframes[k]->terrain);
     }
     for (auto& [id, lm] : landmarks) lm.rho[0] = rho_backup[id];
     return summary;
@@ -344,7 +397,7 @@ std::shared_ptr<const factors::MarginalizationInfo> marginalizeOldest(
   }
 
   std::unordered_set<const double*> drop = {oldest->q_W_B, oldest->q_W_G, oldest->p_W_B,
-                                            oldest->b_g};
+                                            oldest->b_g, oldest->terrain};
   for (auto& [id, lm] : map.landmarks)
     if (lm.anchor_kf == oldest->id && marginalize_tracks.count(id)) drop.insert(lm.rho);
 

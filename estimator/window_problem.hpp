@@ -59,6 +59,11 @@ struct WindowModel {
   double camera_height_m = 0.0;  // ground landmarks' depth below the camera, m (<= 0: no factor)
   double ground_sigma_m = 0.03;  // camera-height factor noise, m
   double ground_huber = 2.0;     // its Huber threshold, sigmas
+  // Terrain planes (with a camera height): a ground landmark also lies on its anchor's terrain
+  // plane (noise ground_sigma_m), which walks between keyframes by these per sqrt(m) driven.
+  bool terrain_planes = false;
+  double terrain_slope_walk = 0.002;   // slope (dz/dx, dz/dy) per sqrt(m)
+  double terrain_height_walk = 0.002;  // m per sqrt(m)
 };
 
 /// What fixes the gauge of the window: a pose prior on one keyframe (before the first
@@ -80,6 +85,7 @@ enum class FactorKind {
   kLidar,
   kMarginal,
   kGround,
+  kTerrain,
   kRotationTie
 };
 
@@ -93,8 +99,15 @@ struct FactorSpec {
   int kf_id = -1;      // bearing: observing keyframe; LiDAR: scan keyframe; gyro: later keyframe
 };
 
+/// True when the model gives keyframes terrain planes (terrain_planes and a camera height).
+bool usesTerrain(const WindowModel& model);
+/// Seeds the terrain plane of each keyframe that has none: the previous keyframe's, else the
+/// ground below it (factors::terrainBelow). Call before building the factors of a solve.
+void seedTerrain(const std::vector<Keyframe*>& keyframes, const WindowModel& model);
+
 /// All factors over `keyframes` (time order) and `landmarks`. Landmarks whose anchor is not among
-/// the keyframes, or with fewer than one usable non-anchor observation, get no factor.
+/// the keyframes, or with fewer than one usable non-anchor observation, get no factor; nor do
+/// keyframes whose terrain plane is not seeded.
 std::vector<FactorSpec> buildFactors(const std::vector<Keyframe*>& keyframes,
                                      std::unordered_map<TrackId, Landmark>& landmarks,
                                      const WindowModel& model, const WindowGauge& gauge);

@@ -99,8 +99,11 @@ void labelGroundLandmarks(std::unordered_map<TrackId, Landmark>& landmarks,
 
 RefineInfo refineKeyframes(const std::vector<Keyframe*>& keyframes,
                            const std::unordered_map<TrackId, Vec3>& points_W,
-                           const WindowModel& model, const std::vector<WindowGauge>& segment_gauges,
+                           const WindowModel& window_model,
+                           const std::vector<WindowGauge>& segment_gauges,
                            const WindowOptions& options, const GroundPlaneOptions& ground_options) {
+  WindowModel model = window_model;
+  model.terrain_planes = model.terrain_planes && options.refine_ground;  // no ground: no terrain
   RefineInfo info;
   info.keyframes = static_cast<int>(keyframes.size());
   if (keyframes.size() < 2) return info;
@@ -178,6 +181,7 @@ RefineInfo refineKeyframes(const std::vector<Keyframe*>& keyframes,
   }
   info.landmarks = static_cast<int>(landmarks.size());
   if (options.refine_ground) labelGroundLandmarks(landmarks, model, options, ground_options);
+  seedTerrain(kfs, model);
 
   const double max_angle = options.outlier_angle_deg * kDegToRad;
   const int passes = std::max(1, options.refine_passes);

@@ -8,6 +8,8 @@
 #include <algorithm>
 #include <vector>
 
+#include "common/so3.hpp"
+
 namespace ovo::estimator {
 namespace {
 
@@ -82,6 +84,110 @@ TEST(MarginalizeOldest, ALandmarkNotSelectedIsDropped) {
   // Only the gauge's prior on the oldest pose is left: nothing about the other keyframes.
   const auto info = marginalizeOldest(map, model(), gaugeOnTheOldest(), {});
   EXPECT_TRUE(!info || (!keeps(*info, *map.keyframes[1]) && !keeps(*info, *map.keyframes[2])));
+}
+
+// Two keyframes 1 m apart on flat ground, each anchoring ground points around it; the gauge holds
+// the first. The second's pitch is 1 deg off (as a drifting gyro leaves it) and nothing else sees
+// its orientation. The camera-height factors fix each point's depth below its camera; only the
+// terrain plane, walked from the first keyframe's, says that the second camera's points must lie
+// on the same ground, which brings its pitch back.
+struct PitchedSecondKeyframe {
+  WindowMap map;
+  WindowModel model;
+  WindowGauge gauge;
+  SE3 truth1 = SE3::Identity();
+};
+
+PitchedSecondKeyframe pitchedSecondKeyframe(bool terrain) {
+  PitchedSecondKeyframe out;
+  WindowModel& m = out.model;
+  m.use_gyro = false;
+  m.camera_height_m = 1.0;
+  m.ground_sigma_m = 0.03;
+  m.terrain_planes = terrain;
+  // Camera 1 m above the ground looking along body x, 12 deg down (x right, y down, z forward).
+  Mat3 R_B_C;
+  R_B_C.col(0) = -Vec3::UnitY();
+  R_B_C.col(1) = -Vec3::UnitZ();
+  R_B_C.col(2) = Vec3::UnitX();
+  m.T_B_C.linear() = Eigen::AngleAxisd(12.0 * M_PI / 180.0, Vec3::UnitY()) * R_B_C;
+  m.T_B_C.translation() = Vec3(0.0, 0.0, 0.7);
+  const Vec3 up_C = m.T_B_C.linear().transpose() * Vec3::UnitZ();
+  TrackId next = 100;
+  for (int k = 0; k < 2; ++k) {
+    auto kf = std::make_unique<Keyframe>(SE3::Identity());
+    kf->id = k;
+    kf->t_ns = k * 1'000'000'000LL;
+    SE3 T = SE3::Identity();
+    T.translation() = Vec3(1.0 * k, 0.0, 0.3);  // the body 0.3 m above the ground z = 0
+    if (k == 1) out.truth1 = T;
+    const SE3 T_C_W = (T * m.T_B_C).inverse();
+    for (double x = 1.0; x <= 4.0; x += 0.5) {
+      for (double y = -1.0; y <= 1.0; y += 0.5) {
+        const Vec3 p_C = T_C_W * Vec3(T.translation().x() + x, y, 0.0);
+        Landmark lm;
+        lm.id = next++;
+        lm.anchor_kf = k;
+        lm.bearing_anchor_C = p_C.normalized();
+        lm.rho[0] = 1.0 / p_C.norm();
+        lm.on_ground = true;
+        lm.ground_up_C = up_C;
+        out.map.landmarks[lm.id] = lm;
+      }
+    }
+    if (k == 1)
+      T.linear() = Eigen::AngleAxisd(1.0 * M_PI / 180.0, Vec3::UnitY()).toRotationMatrix();
+    kf->setPose(T);
+    out.map.keyframes.push_back(std::move(kf));
+  }
+  out.gauge.kf_id = 0;
+  out.gauge.T_W_B = out.map.keyframes[0]->pose();
+  return out;
+}
+
+double pitchErrorDegAfterSolve(bool terrain) {
+  PitchedSecondKeyframe s = pitchedSecondKeyframe(terrain);
+  std::vector<Keyframe*> kfs = {s.map.keyframes[0].get(), s.map.keyframes[1].get()};
+  seedTerrain(kfs, s.model);
+  SolveOptions so;
+  so.max_iterations = 20;
+  const SolveSummary summary = solveFactors(buildFactors(kfs, s.map.landmarks, s.model, s.gauge),
+                                            kfs, s.map.landmarks, s.model, so);
+  EXPECT_TRUE(summary.usable) << summary.message;
+  const Mat3 dR = s.truth1.linear().transpose() * kfs[1]->pose().linear();
+  return so3::angle(dR) * 180.0 / M_PI;
+}
+
+TEST(TerrainPlanes, TheGroundBringsADriftedPitchBack) {
+  EXPECT_NEAR(pitchErrorDegAfterSolve(false), 1.0, 1e-6);  // nothing sees it without the terrain
+  EXPECT_LT(pitchErrorDegAfterSolve(true), 0.02);
+}
+
+TEST(TerrainPlanes, OffOrWithoutACameraHeightTheKeyframesGetNoTerrainFactors) {
+  for (const bool terrain : {false, true}) {
+    PitchedSecondKeyframe s = pitchedSecondKeyframe(terrain);
+    if (terrain) s.model.camera_height_m = 0.0;
+    std::vector<Keyframe*> kfs = {s.map.keyframes[0].get(), s.map.keyframes[1].get()};
+    seedTerrain(kfs, s.model);
+    EXPECT_FALSE(kfs[0]->terrain_set || kfs[1]->terrain_set);
+    for (const auto& f : buildFactors(kfs, s.map.landmarks, s.model, s.gauge))
+      EXPECT_NE(f.kind, FactorKind::kTerrain);
+  }
+}
+
+TEST(TerrainPlanes, TheOldestKeyframesPlaneGoesIntoThePriorWithIt) {
+  PitchedSecondKeyframe s = pitchedSecondKeyframe(true);
+  std::vector<Keyframe*> kfs = {s.map.keyframes[0].get(), s.map.keyframes[1].get()};
+  seedTerrain(kfs, s.model);
+  EXPECT_EQ(kfs[1]->terrain[2], kfs[0]->terrain[2]);  // seeded from the previous keyframe
+  std::unordered_map<TrackId, int> ending;
+  for (const auto& [id, lm] : s.map.landmarks)
+    if (lm.anchor_kf == 0) ending[id] = -1;
+  const auto info = marginalizeOldest(s.map, s.model, s.gauge, ending);
+  ASSERT_TRUE(info);
+  const auto& kept = info->keptBlocks();
+  EXPECT_NE(std::find(kept.begin(), kept.end(), kfs[1]->terrain), kept.end());
+  EXPECT_EQ(std::find(kept.begin(), kept.end(), kfs[0]->terrain), kept.end());
 }
 
 }  // namespace
