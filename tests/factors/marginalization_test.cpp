@@ -278,6 +278,28 @@ class NonlinearWindow : public ::testing::Test {
     return info;
   }
 
+  /// The prior's kept states moved off its linearisation point: quaternions by a random rotation
+  /// of up to 0.1 (tangent units), the other blocks by +0.05 per value.
+  std::vector<std::vector<double>> awayFromLinearization(const MarginalizationInfo& info,
+                                                         unsigned seed) const {
+    std::mt19937 rng(seed);
+    ceres::EigenQuaternionManifold qm;
+    std::vector<std::vector<double>> values;
+    for (double* p : info.keptBlocks()) {
+      std::vector<double> v = info.linearizationPoint(p);
+      if (isQuat(p)) {
+        const Vec3 d = testing::randomVec(rng, 0.1);
+        std::vector<double> out(4);
+        qm.Plus(v.data(), d.data(), out.data());
+        v = out;
+      } else {
+        for (double& x : v) x += 0.05;
+      }
+      values.push_back(v);
+    }
+    return values;
+  }
+
   struct LossyFactor {
     std::shared_ptr<ceres::CostFunction> cost;
     std::shared_ptr<ceres::LossFunction> loss;
@@ -383,21 +405,12 @@ TEST_F(NonlinearWindow, ScaledPriorHasTheSameResidualAtTheScaledPositions) {
   const auto scaled = info->scaledPositions(positions, centre, s);
 
   // Some state away from the linearisation point, and the same state scaled about the centre.
-  std::mt19937 rng(33);
-  std::vector<std::vector<double>> values, values_scaled;
+  const std::vector<std::vector<double>> values = awayFromLinearization(*info, 33);
+  std::vector<std::vector<double>> values_scaled;
   std::vector<bool> is_quat;
-  ceres::EigenQuaternionManifold qm;
-  for (double* p : info->keptBlocks()) {
-    std::vector<double> v = info->linearizationPoint(p);
-    if (isQuat(p)) {
-      const Vec3 d = testing::randomVec(rng, 0.1);
-      std::vector<double> out(4);
-      qm.Plus(v.data(), d.data(), out.data());
-      v = out;
-    } else {
-      for (double& x : v) x += 0.05;
-    }
-    values.push_back(v);
+  for (std::size_t i = 0; i < values.size(); ++i) {
+    const double* p = info->keptBlocks()[i];
+    std::vector<double> v = values[i];
     const bool is_position = p == p_[1].data() || p == p_[2].data();
     if (is_position)
       for (int k = 0; k < 3; ++k) v[k] = centre[k] + s * (v[k] - centre[k]);
@@ -445,20 +458,11 @@ TEST_F(NonlinearWindow, ScaledPriorMapsTerrainPlanesAsTheirPointsScale) {
   const std::vector<const double*> positions = {p_[1].data(), p_[2].data()};
   const std::vector<const double*> terrains = {b_[1].data()};
   const auto scaled = info->scaledPositions(positions, centre, s, terrains);
-  std::vector<std::vector<double>> values, values_scaled;
-  ceres::EigenQuaternionManifold qm;
-  std::mt19937 rng(34);
-  for (double* p : info->keptBlocks()) {
-    std::vector<double> v = info->linearizationPoint(p);
-    if (isQuat(p)) {
-      const Vec3 d = testing::randomVec(rng, 0.1);
-      std::vector<double> out(4);
-      qm.Plus(v.data(), d.data(), out.data());
-      v = out;
-    } else {
-      for (double& x : v) x += 0.05;
-    }
-    values.push_back(v);
+  const std::vector<std::vector<double>> values = awayFromLinearization(*info, 34);
+  std::vector<std::vector<double>> values_scaled;
+  for (std::size_t i = 0; i < values.size(); ++i) {
+    const double* p = info->keptBlocks()[i];
+    std::vector<double> v = values[i];
     if (p == p_[1].data() || p == p_[2].data())
       for (int k = 0; k < 3; ++k) v[k] = centre[k] + s * (v[k] - centre[k]);
     if (p == b_[1].data()) scaleTerrain(v.data(), centre, s);
