@@ -1,7 +1,7 @@
-// The sliding window's contents: keyframes (pose, gyro bias, observed tracks, LiDAR beams), the
-// inverse-depth landmarks anchored in them, and the per-frame tracks that feed them. Parameter
-// blocks are plain arrays at stable addresses (keyframes by unique_ptr, landmarks in a node map)
-// so that Ceres problems and the marginalisation prior can refer to them across solves.
+// The sliding window's contents: keyframes (pose, gyro bias, terrain plane, observed tracks, LiDAR
+// beams), the inverse-depth landmarks anchored in them, and the per-frame tracks that feed them.
+// Parameter blocks are plain arrays at stable addresses (keyframes by unique_ptr, landmarks in a
+// node map) so that Ceres problems and the marginalisation prior can refer to them across solves.
 #pragma once
 
 #include <cstdint>

@@ -1,6 +1,7 @@
 // Building and solving the window's Ceres problem (bearing, gyro, bias random walk, LiDAR range,
-// gauge and marginalisation factors), the marginalisation of the oldest keyframe, the per-frame
-// motion-only pose refinement, and the offline full refinement over every keyframe.
+// camera-height and terrain-plane, gauge and marginalisation factors), the marginalisation of the
+// oldest keyframe, the per-frame motion-only pose refinement, and the offline full refinement over
+// every keyframe.
 #pragma once
 
 #include <ceres/cost_function.h>
