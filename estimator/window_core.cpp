@@ -814,12 +814,11 @@ bool WindowCore::rescaleToLidar() {
     Eigen::Map<Vec3> p(kf->p_W_B);
     p = centre + s * (p - centre);
     positions.push_back(kf->p_W_B);
+    if (kf->terrain_set) factors::scaleTerrain(kf->terrain, centre, s);
     terrains.push_back(kf->terrain);
     kf->lidar_rejected.clear();  // rejected at the wrong scale
   }
   for (auto& [id, lm] : map_.landmarks) lm.rho[0] /= s;
-  for (auto& kf : map_.keyframes)
-    if (kf->terrain_set) factors::scaleTerrain(kf->terrain, centre, s);
   if (gauge_.marginalization)
     gauge_.marginalization =
         gauge_.marginalization->scaledPositions(positions, centre, s, terrains);

@@ -119,10 +119,6 @@ WindowOptions readWindowOptions(const Config& c) {
   o.marginalize_max_landmarks =
       c.getIntInRange(p + "marginalize_max_landmarks", o.marginalize_max_landmarks, 0, 100000);
   o.use_ground_height = c.get<bool>(p + "use_ground_height", o.use_ground_height);
-  o.terrain_planes = c.get<bool>(p + "terrain_planes", o.terrain_planes);
-  o.terrain_slope_walk = c.getInRange(p + "terrain_slope_walk", o.terrain_slope_walk, 1e-6, 10.0);
-  o.terrain_height_walk =
-      c.getInRange(p + "terrain_height_walk", o.terrain_height_walk, 1e-6, 10.0);
   o.ground_height_sigma_m =
       c.getInRange(p + "ground_height_sigma_m", o.ground_height_sigma_m, 1e-4, 10.0);
   o.ground_max_distance_heights =
@@ -136,6 +132,10 @@ WindowOptions readWindowOptions(const Config& c) {
                                                   o.ground_normal_max_deg_no_lidar, 0.0, 90.0);
   o.ground_inlier_fraction =
       c.getInRange(p + "ground_inlier_fraction", o.ground_inlier_fraction, 1e-4, 1.0);
+  o.terrain_planes = c.get<bool>(p + "terrain_planes", o.terrain_planes);
+  o.terrain_slope_walk = c.getInRange(p + "terrain_slope_walk", o.terrain_slope_walk, 1e-6, 10.0);
+  o.terrain_height_walk =
+      c.getInRange(p + "terrain_height_walk", o.terrain_height_walk, 1e-6, 10.0);
   o.marginalize_reanchored =
       c.getChoice(p + "marginalize_reanchored", o.marginalize_reanchored, {"link", "all", "none"});
 

@@ -59,23 +59,17 @@ struct WindowOptions {
                                            // prior sigma on top of the preintegration noise, rad
 
   // Camera-height factor (ground landmarks near the camera; needs the rig's camera height).
-  bool use_ground_height = true;  // false: scale from the LiDAR (and initialisation) only
-  // Terrain planes: with the camera height, each keyframe carries the ground plane in the world
-  // frame; ground landmarks lie on it (ground_height_sigma_m) and it walks between keyframes, so
-  // the roll and pitch the gyro drifts in are seen against the ground.
-  bool terrain_planes = false;
-  double terrain_slope_walk = 0.002;         // change of the ground's slope per sqrt(m) driven
-  double terrain_height_walk = 0.002;        // change of its height, m per sqrt(m) driven
-  double ground_height_sigma_m = 0.06;       // noise of a ground point's height below the camera, m
-  double ground_max_distance_heights = 6.0;  // ground points used up to this distance, in camera
-                                             // heights (6 m at 1 m; 9.9 m at KITTI's 1.65 m,
-                                             // whose nearest visible ground is 6.3 m away)
-  double ground_min_depression_deg = 8.0;    // ... and at least this far below the horizon, deg
-  double ground_scale_gate = 0.2;            // the keyframe's fitted plane must be within this
-                                             // fraction of the camera height (scale sanity)
-  double ground_scale_gate_no_lidar = 0.5;   // ... without a LiDAR, where the ground is the only
-                                             // scale after the start: a start from a poor plane
-                                             // is then corrected, not kept
+  bool use_ground_height = true;        // false: scale from the LiDAR (and initialisation) only
+  double ground_height_sigma_m = 0.06;  // noise of a ground point's height below the camera, m
+  double ground_max_distance_heights = 6.0;     // ground points used up to this distance, in camera
+                                                // heights (6 m at 1 m; 9.9 m at KITTI's 1.65 m,
+                                                // whose nearest visible ground is 6.3 m away)
+  double ground_min_depression_deg = 8.0;       // ... and at least this far below the horizon, deg
+  double ground_scale_gate = 0.2;               // the keyframe's fitted plane must be within this
+                                                // fraction of the camera height (scale sanity)
+  double ground_scale_gate_no_lidar = 0.5;      // ... without a LiDAR, where the ground is the only
+                                                // scale after the start: a start from a poor plane
+                                                // is then corrected, not kept
   double ground_normal_max_deg_no_lidar = 5.0;  // ... and without a LiDAR its normal within
                                                 // this of the body's up, as the ground chain's
                                                 // before the start (else vo.ground's 20 deg):
@@ -84,6 +78,13 @@ struct WindowOptions {
   double ground_inlier_fraction = 0.04;  // a point is on the plane within this fraction of the
                                          // camera height; after a solve it keeps its factor
                                          // within twice that
+
+  // Terrain planes: with the camera height, each keyframe carries the ground plane in the world
+  // frame; ground landmarks lie on it (ground_height_sigma_m) and it walks between keyframes, so
+  // the roll and pitch the gyro drifts in are seen against the ground.
+  bool terrain_planes = false;
+  double terrain_slope_walk = 0.002;   // change of the ground's slope per sqrt(m) driven
+  double terrain_height_walk = 0.002;  // change of its height, m per sqrt(m) driven
 
   // LiDAR association.
   double lidar_radius_px = 4.0;            // beam end point to observation, px
