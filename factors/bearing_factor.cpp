@@ -27,68 +27,62 @@ Eigen::Matrix<double, 2, 3> BearingFactor::tangentBasis(const Vec3& b) {
   return T;
 }
 
+std::optional<PredictedBearing> predictBearing(const Vec3& bearing_Ca, const Mat3& R_B_C,
+                                               const Vec3& t_B_C, const double* q_W_Ba,
+                                               const double* p_W_Ba, const double* q_W_Bj,
+                                               const double* p_W_Bj, double rho, bool jacobian) {
+  const Eigen::Map<const Vec3> p_a(p_W_Ba), p_j(p_W_Bj);
+  const Mat3 R_W_Ba = quatFromBlock(q_W_Ba).toRotationMatrix();
+  const Mat3 R_W_Bj = quatFromBlock(q_W_Bj).toRotationMatrix();
+  const Mat3 R_C_B = R_B_C.transpose();
+  const Mat3 R_C_W = R_C_B * R_W_Bj.transpose();
+
+  const Vec3 v_Ba = R_B_C * bearing_Ca + rho * t_B_C;  // rho * p_Ba
+  const Vec3 Rv_W = R_W_Ba * v_Ba;
+  const Vec3 w_W = Rv_W + rho * (p_a - p_j);  // rho * (p_W - p_W_Bj)
+  const Vec3 h = R_C_W * w_W - rho * (R_C_B * t_B_C);
+  const double n = h.norm();
+  if (!(n > 1e-12)) return std::nullopt;
+  PredictedBearing out;
+  out.u = h / n;
+  if (!jacobian) return out;
+
+  // d u / d h = (I - u u^T) / |h|
+  const Mat3 du_dh = (Mat3::Identity() - out.u * out.u.transpose()) / n;
+  const Mat3 A = du_dh * R_C_W;
+  out.J.block<3, 3>(0, 0) = A * (-so3::hat(Rv_W));
+  out.J.block<3, 3>(0, 3) = rho * A;
+  out.J.block<3, 3>(0, 6) = A * so3::hat(w_W);
+  out.J.block<3, 3>(0, 9) = -rho * A;
+  out.J.col(12) = A * (R_W_Ba * t_B_C + p_a - p_j) - du_dh * (R_C_B * t_B_C);
+  return out;
+}
+
 std::optional<Vec3> BearingFactor::predictedBearing(const double* q_W_Ba, const double* p_W_Ba,
                                                     const double* q_W_Bj, const double* p_W_Bj,
                                                     double rho) const {
-  const Mat3 R_W_Ba = quatFromBlock(q_W_Ba).toRotationMatrix();
-  const Mat3 R_W_Bj = quatFromBlock(q_W_Bj).toRotationMatrix();
-  const Eigen::Map<const Vec3> p_a(p_W_Ba), p_j(p_W_Bj);
-  const Mat3 R_C_B = R_B_C_.transpose();
-  const Vec3 h = R_C_B * (R_W_Bj.transpose() *
-                              (R_W_Ba * (R_B_C_ * bearing_Ca_ + rho * t_B_C_) + rho * (p_a - p_j)) -
-                          rho * t_B_C_);
-  const double n = h.norm();
-  if (!(n > 1e-12)) return std::nullopt;
-  return h / n;
+  const auto b =
+      predictBearing(bearing_Ca_, R_B_C_, t_B_C_, q_W_Ba, p_W_Ba, q_W_Bj, p_W_Bj, rho, false);
+  if (!b) return std::nullopt;
+  return b->u;
 }
 
 bool BearingFactor::Evaluate(double const* const* parameters, double* residuals,
                              double** jacobians) const {
-  const double* q_a = parameters[0];
-  const double* q_j = parameters[2];
-  const Eigen::Map<const Vec3> p_a(parameters[1]), p_j(parameters[3]);
-  const double rho = parameters[4][0];
-
-  const Mat3 R_W_Ba = quatFromBlock(q_a).toRotationMatrix();
-  const Mat3 R_W_Bj = quatFromBlock(q_j).toRotationMatrix();
-  const Mat3 R_C_B = R_B_C_.transpose();
-  const Mat3 R_C_W = R_C_B * R_W_Bj.transpose();
-
-  const Vec3 v_Ba = R_B_C_ * bearing_Ca_ + rho * t_B_C_;  // rho * p_Ba
-  const Vec3 Rv_W = R_W_Ba * v_Ba;
-  const Vec3 w_W = Rv_W + rho * (p_a - p_j);  // rho * (p_W - p_W_Bj)
-  const Vec3 h = R_C_W * w_W - rho * (R_C_B * t_B_C_);
-  const double n = h.norm();
-  if (!(n > 1e-12)) return false;
-  const Vec3 u = h / n;
-
+  const auto b =
+      predictBearing(bearing_Ca_, R_B_C_, t_B_C_, parameters[0], parameters[1], parameters[2],
+                     parameters[3], parameters[4][0], jacobians != nullptr);
+  if (!b) return false;
   Eigen::Map<Vec2> r(residuals);
-  r = tangent_ * u;
+  r = tangent_ * b->u;
   if (!jacobians) return true;
-
-  // d r / d h = T (I - u u^T) / |h|
-  const Eigen::Matrix<double, 2, 3> dr_dh = tangent_ * (Mat3::Identity() - u * u.transpose()) / n;
-  if (jacobians[0]) {
-    const Eigen::Matrix<double, 2, 3> J_theta = dr_dh * R_C_W * (-so3::hat(Rv_W));
-    rotationJacobianToAmbient<2>(J_theta, q_a, jacobians[0]);
-  }
-  if (jacobians[1]) {
-    Eigen::Map<Eigen::Matrix<double, 2, 3, Eigen::RowMajor>> J(jacobians[1]);
-    J = rho * dr_dh * R_C_W;
-  }
-  if (jacobians[2]) {
-    const Eigen::Matrix<double, 2, 3> J_theta = dr_dh * R_C_W * so3::hat(w_W);
-    rotationJacobianToAmbient<2>(J_theta, q_j, jacobians[2]);
-  }
-  if (jacobians[3]) {
-    Eigen::Map<Eigen::Matrix<double, 2, 3, Eigen::RowMajor>> J(jacobians[3]);
-    J = -rho * dr_dh * R_C_W;
-  }
-  if (jacobians[4]) {
-    const Vec3 dh_drho = R_C_W * (R_W_Ba * t_B_C_ + p_a - p_j) - R_C_B * t_B_C_;
-    Eigen::Map<Vec2> J(jacobians[4]);
-    J = dr_dh * dh_drho;
-  }
+  const Eigen::Matrix<double, 2, 13> J = tangent_ * b->J;
+  if (jacobians[0]) rotationJacobianToAmbient<2>(J.block<2, 3>(0, 0), parameters[0], jacobians[0]);
+  using Mat23R = Eigen::Matrix<double, 2, 3, Eigen::RowMajor>;
+  if (jacobians[1]) Eigen::Map<Mat23R>{jacobians[1]} = J.block<2, 3>(0, 3);
+  if (jacobians[2]) rotationJacobianToAmbient<2>(J.block<2, 3>(0, 6), parameters[2], jacobians[2]);
+  if (jacobians[3]) Eigen::Map<Mat23R>{jacobians[3]} = J.block<2, 3>(0, 9);
+  if (jacobians[4]) Eigen::Map<Vec2>{jacobians[4]} = J.col(12);
   return true;
 }
 

@@ -11,12 +11,24 @@
 
 namespace ovo::factors {
 
-/// Residual = [t1 t2]^T u / sigma_rad, where u is the predicted unit bearing of the landmark in C_j
-/// and (t1, t2) an orthonormal basis of the tangent plane of the measured bearing b_j (computed
-/// once). u is taken from the homogeneous point h = rho p_Cj
+/// The predicted unit bearing u in C_j of a landmark anchored in keyframe a (unit bearing b_a in
+/// C_a, inverse depth rho) and, on request, du/d[theta_a, p_a, theta_j, p_j, rho] (3 x 13; theta
+/// are world-frame rotation vectors, R <- Exp(theta) R). u is taken from the homogeneous point
 ///   h = R_C_B R_W_Bj^T ( R_W_Ba (R_B_C b_a + rho t_B_C) + rho (p_W_Ba - p_W_Bj) ) - rho R_C_B
-///   t_B_C,
-/// which stays finite at rho -> 0 (a point at infinity). The residual is zero for u = -b_j too:
+///   t_B_C = rho p_Cj,
+/// which stays finite at rho -> 0 (a point at infinity). nullopt when h vanishes.
+struct PredictedBearing {
+  Vec3 u;
+  Eigen::Matrix<double, 3, 13> J;  // set only when asked for
+};
+std::optional<PredictedBearing> predictBearing(const Vec3& bearing_Ca, const Mat3& R_B_C,
+                                               const Vec3& t_B_C, const double* q_W_Ba,
+                                               const double* p_W_Ba, const double* q_W_Bj,
+                                               const double* p_W_Bj, double rho, bool jacobian);
+
+/// Residual = [t1 t2]^T u / sigma_rad, where u is the predicted unit bearing of the landmark in C_j
+/// (predictBearing) and (t1, t2) an orthonormal basis of the tangent plane of the measured bearing
+/// b_j (computed once). The residual is zero for u = -b_j too:
 /// the estimator gates observations with predictedBearing().dot(b_j) > 0.
 /// Blocks: q_W_Ba[4], p_W_Ba[3], q_W_Bj[4], p_W_Bj[3], rho[1]. Robust loss is added by the caller.
 class BearingFactor final : public ceres::SizedCostFunction<2, 4, 3, 4, 3, 1> {
