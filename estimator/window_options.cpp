@@ -97,6 +97,8 @@ WindowOptions readWindowOptions(const Config& c) {
   o.standstill_min_bias_s =
       c.getInRange(p + "standstill_min_bias_s", o.standstill_min_bias_s, 0.0, 100.0);
   o.track_creep_px = c.getInRange(p + "track_creep_px", o.track_creep_px, 0.0, 100.0);
+  o.bearing_steps = c.get<bool>(p + "bearing_steps", o.bearing_steps);
+  o.track_white_px = c.getInRange(p + "track_white_px", o.track_white_px, 0.0, 100.0);
   o.standstill_trim_s = c.getInRange(p + "standstill_trim_s", o.standstill_trim_s, 0.0, 100.0);
 
   o.velocity_decay_per_s =

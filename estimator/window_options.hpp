@@ -43,6 +43,11 @@ struct WindowOptions {
   double track_creep_px = 0.2;        // a track's random walk, px per sqrt(frame) (measured on the
                                 // simulated rows: 0.38 px after 1 frame, 0.9 after 10, 1.8 after
                                 // 40): added to the bearing sigma between anchor and observation
+  bool bearing_steps = false;    // a track's sightings after its first are tied to the previous
+                                 // sighting (BearingStepFactor), not to the anchor: the steps of
+                                 // a random walk are independent, its errors against the anchor
+                                 // are not
+  double track_white_px = 0.16;  // ... the sighting noise of a step's two ends, px (each)
   double lidar_range_sigma_m = -1.0;          // LiDAR range noise, m; < 0: the rig's value
   double lidar_association_sigma_m = 0.0;     // added in quadrature to the range noise: a
                                               // landmark off the scan plane, on foliage, m

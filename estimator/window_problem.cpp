@@ -8,6 +8,7 @@
 #include <unordered_set>
 
 #include "factors/bearing_factor.hpp"
+#include "factors/bearing_step_factor.hpp"
 #include "factors/ground_height_factor.hpp"
 #include "factors/lidar_range_factor.hpp"
 #include "factors/parameterization.hpp"
@@ -66,10 +67,35 @@ std::vector<FactorSpec> buildFactors(const std::vector<Keyframe*>& keyframes,
     auto anchor_it = kf_of.find(lm.anchor_kf);
     if (anchor_it == kf_of.end() || !(lm.rho[0] > 0.0)) continue;
     Keyframe* anchor = anchor_it->second;
+    // With bearing steps each sighting after the first is tied to the previous kept one.
+    Keyframe* prev = nullptr;
     for (Keyframe* kf : keyframes) {
       if (kf == anchor) continue;
       auto obs = kf->observations.find(id);
       if (obs == kf->observations.end()) continue;
+      if (model.bearing_steps && prev != nullptr) {
+        const TrackObservation& oi = prev->observations.at(id);
+        const double frames = std::max(0, obs->second.age - oi.age);
+        const double sigma_rad =
+            std::sqrt(2.0 * model.step_white_rad * model.step_white_rad +
+                      model.bearing_creep_rad * model.bearing_creep_rad * frames);
+        const auto u = factors::predictBearing(
+            lm.bearing_anchor_C, model.T_B_C.linear(), model.T_B_C.translation(), anchor->q_W_B,
+            anchor->p_W_B, kf->q_W_B, kf->p_W_B, lm.rho[0], false);
+        if (!u || u->u.dot(obs->second.bearing_C) < std::cos(0.2)) continue;  // gross: > 11 deg
+        FactorSpec f;
+        f.kind = FactorKind::kBearing;
+        f.cost = std::make_unique<factors::BearingStepFactor>(
+            lm.bearing_anchor_C, oi.bearing_C, obs->second.bearing_C, model.T_B_C, sigma_rad);
+        f.loss = std::make_unique<ceres::HuberLoss>(model.bearing_huber);
+        f.blocks = {anchor->q_W_B, anchor->p_W_B, prev->q_W_B, prev->p_W_B,
+                    kf->q_W_B,     kf->p_W_B,     lm.rho};
+        f.track = id;
+        f.kf_id = kf->id;
+        out.push_back(std::move(f));
+        prev = kf;
+        continue;
+      }
       // Tracks creep (a random walk of the sub-pixel position per frame): the error between the
       // anchor's and this observation grows with the frames between them.
       double sigma_rad = model.bearing_sigma_rad;
@@ -85,6 +111,7 @@ std::vector<FactorSpec> buildFactors(const std::vector<Keyframe*>& keyframes,
       const auto u =
           cost->predictedBearing(anchor->q_W_B, anchor->p_W_B, kf->q_W_B, kf->p_W_B, lm.rho[0]);
       if (!u || u->dot(obs->second.bearing_C) < std::cos(0.2)) continue;  // gross: > 11 deg
+      prev = kf;
       FactorSpec f;
       f.kind = FactorKind::kBearing;
       f.cost = std::move(cost);

@@ -1,7 +1,7 @@
-// Building and solving the window's Ceres problem (bearing, gyro, bias random walk, LiDAR range,
-// camera-height and terrain-plane, gauge and marginalisation factors), the marginalisation of the
-// oldest keyframe, the per-frame motion-only pose refinement, and the offline full refinement over
-// every keyframe.
+// Building and solving the window's Ceres problem (bearing or bearing-step, gyro, bias random walk,
+// LiDAR range, camera-height and terrain-plane, gauge and marginalisation factors), the
+// marginalisation of the oldest keyframe, the per-frame motion-only pose refinement, and the
+// offline full refinement over every keyframe.
 #pragma once
 
 #include <ceres/cost_function.h>
@@ -44,6 +44,8 @@ struct WindowModel {
   double bearing_sigma_rad = 0.5 / 305.0;  // pixel sigma / focal px
   double bearing_huber = 2.0;              // Huber threshold on the whitened residual (sigmas)
   double bearing_creep_rad = 0.0;  // track creep per sqrt(frame) between anchor and observation
+  bool bearing_steps = false;      // sightings after a track's first: BearingStepFactor from the
+  double step_white_rad = 0.0;     // previous one, whose sighting noise it carries too
   double lidar_sigma_m = 0.02;
   double lidar_ground_sigma_m = 0.02;  // height of a landmark on a ground beam's plane, m
   double lidar_huber = 2.0;            // robust loss threshold on the whitened residual (sigmas)

@@ -838,5 +838,33 @@ TEST(WindowCore, WithoutGyroUsesVisionOnlyRotationAndSaysSo) {
             0.05 * pathLength(seq));
 }
 
+TEST(WindowCore, BearingStepsFollowTheTracksCreep) {
+  // Tracks that creep 0.2 px per sqrt(frame) share their walk in every error against the anchor;
+  // tied to the previous sighting instead, each factor sees one step of it. Measured over seeds
+  // 2..7 of the 12 s creep drive: online RMSE 0.0151 m (mean) with anchor factors, 0.0116 m with
+  // steps, better on every seed.
+  double anchor_sum = 0.0, steps_sum = 0.0;
+  for (std::uint32_t seed = 2; seed <= 7; ++seed) {
+    SyntheticOptions o;
+    o.duration_s = 12.0;
+    o.track_creep_px = 0.2;
+    o.seed = seed;
+    const auto seq = makeSyntheticSequence(o);
+    WindowOptions steps;
+    steps.bearing_steps = true;
+    const auto a = run(seq), b = run(seq, steps);
+    expectAllFinite(b);
+    std::size_t first = 0;
+    while (first < a.estimates.size() && a.estimates[first].status != "initialized") ++first;
+    const double ra = poseRmse(seq, a.trajectory, first).position_m;
+    const double rb = poseRmse(seq, b.trajectory, first).position_m;
+    std::printf("seed %u: position RMSE anchor factors %.4f m, bearing steps %.4f m\n", seed, ra,
+                rb);
+    anchor_sum += ra;
+    steps_sum += rb;
+  }
+  EXPECT_LT(steps_sum, 0.85 * anchor_sum);
+}
+
 }  // namespace
 }  // namespace ovo::estimator
