@@ -46,7 +46,7 @@ struct WindowOptions {
   bool bearing_steps = false;    // a track's sightings after its first are tied to the previous
                                  // sighting (BearingStepFactor), not to the anchor: the steps of
                                  // a random walk are independent, its errors against the anchor
-                                 // are not
+                                 // are not (no effect with track_creep_px 0)
   double track_white_px = 0.16;  // ... the sighting noise of a step's two ends, px (each)
   double lidar_range_sigma_m = -1.0;          // LiDAR range noise, m; < 0: the rig's value
   double lidar_association_sigma_m = 0.0;     // added in quadrature to the range noise: a

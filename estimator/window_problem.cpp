@@ -73,53 +73,42 @@ std::vector<FactorSpec> buildFactors(const std::vector<Keyframe*>& keyframes,
       if (kf == anchor) continue;
       auto obs = kf->observations.find(id);
       if (obs == kf->observations.end()) continue;
+      const auto u = factors::predictBearing(lm.bearing_anchor_C, model.T_B_C.linear(),
+                                             model.T_B_C.translation(), anchor->q_W_B,
+                                             anchor->p_W_B, kf->q_W_B, kf->p_W_B, lm.rho[0], false);
+      if (!u || u->u.dot(obs->second.bearing_C) < std::cos(0.2)) continue;  // gross: > 11 deg
+      FactorSpec f;
+      f.kind = FactorKind::kBearing;
       if (model.bearing_steps && prev != nullptr) {
         const TrackObservation& oi = prev->observations.at(id);
         const double frames = std::max(0, obs->second.age - oi.age);
         const double sigma_rad =
             std::sqrt(2.0 * model.step_white_rad * model.step_white_rad +
                       model.bearing_creep_rad * model.bearing_creep_rad * frames);
-        const auto u = factors::predictBearing(
-            lm.bearing_anchor_C, model.T_B_C.linear(), model.T_B_C.translation(), anchor->q_W_B,
-            anchor->p_W_B, kf->q_W_B, kf->p_W_B, lm.rho[0], false);
-        if (!u || u->u.dot(obs->second.bearing_C) < std::cos(0.2)) continue;  // gross: > 11 deg
-        FactorSpec f;
-        f.kind = FactorKind::kBearing;
         f.cost = std::make_unique<factors::BearingStepFactor>(
             lm.bearing_anchor_C, oi.bearing_C, obs->second.bearing_C, model.T_B_C, sigma_rad);
-        f.loss = std::make_unique<ceres::HuberLoss>(model.bearing_huber);
         f.blocks = {anchor->q_W_B, anchor->p_W_B, prev->q_W_B, prev->p_W_B,
                     kf->q_W_B,     kf->p_W_B,     lm.rho};
-        f.track = id;
-        f.kf_id = kf->id;
-        out.push_back(std::move(f));
-        prev = kf;
-        continue;
+      } else {
+        // Tracks creep (a random walk of the sub-pixel position per frame): the error between the
+        // anchor's and this observation grows with the frames between them.
+        double sigma_rad = model.bearing_sigma_rad;
+        if (model.bearing_creep_rad > 0.0) {
+          auto a = anchor->observations.find(id);
+          const int frames =
+              a == anchor->observations.end() ? 0 : std::max(0, obs->second.age - a->second.age);
+          sigma_rad = std::sqrt(sigma_rad * sigma_rad +
+                                model.bearing_creep_rad * model.bearing_creep_rad * frames);
+        }
+        f.cost = std::make_unique<factors::BearingFactor>(
+            lm.bearing_anchor_C, obs->second.bearing_C, model.T_B_C, sigma_rad);
+        f.blocks = {anchor->q_W_B, anchor->p_W_B, kf->q_W_B, kf->p_W_B, lm.rho};
       }
-      // Tracks creep (a random walk of the sub-pixel position per frame): the error between the
-      // anchor's and this observation grows with the frames between them.
-      double sigma_rad = model.bearing_sigma_rad;
-      if (model.bearing_creep_rad > 0.0) {
-        auto a = anchor->observations.find(id);
-        const int frames =
-            a == anchor->observations.end() ? 0 : std::max(0, obs->second.age - a->second.age);
-        sigma_rad = std::sqrt(sigma_rad * sigma_rad +
-                              model.bearing_creep_rad * model.bearing_creep_rad * frames);
-      }
-      auto cost = std::make_unique<factors::BearingFactor>(
-          lm.bearing_anchor_C, obs->second.bearing_C, model.T_B_C, sigma_rad);
-      const auto u =
-          cost->predictedBearing(anchor->q_W_B, anchor->p_W_B, kf->q_W_B, kf->p_W_B, lm.rho[0]);
-      if (!u || u->dot(obs->second.bearing_C) < std::cos(0.2)) continue;  // gross: > 11 deg
-      prev = kf;
-      FactorSpec f;
-      f.kind = FactorKind::kBearing;
-      f.cost = std::move(cost);
       f.loss = std::make_unique<ceres::HuberLoss>(model.bearing_huber);
-      f.blocks = {anchor->q_W_B, anchor->p_W_B, kf->q_W_B, kf->p_W_B, lm.rho};
       f.track = id;
       f.kf_id = kf->id;
       out.push_back(std::move(f));
+      prev = kf;
     }
   }
   if (usesTerrain(model)) {

@@ -58,15 +58,6 @@ std::optional<PredictedBearing> predictBearing(const Vec3& bearing_Ca, const Mat
   return out;
 }
 
-std::optional<Vec3> BearingFactor::predictedBearing(const double* q_W_Ba, const double* p_W_Ba,
-                                                    const double* q_W_Bj, const double* p_W_Bj,
-                                                    double rho) const {
-  const auto b =
-      predictBearing(bearing_Ca_, R_B_C_, t_B_C_, q_W_Ba, p_W_Ba, q_W_Bj, p_W_Bj, rho, false);
-  if (!b) return std::nullopt;
-  return b->u;
-}
-
 bool BearingFactor::Evaluate(double const* const* parameters, double* residuals,
                              double** jacobians) const {
   const auto b =

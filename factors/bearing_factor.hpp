@@ -29,7 +29,7 @@ std::optional<PredictedBearing> predictBearing(const Vec3& bearing_Ca, const Mat
 /// Residual = [t1 t2]^T u / sigma_rad, where u is the predicted unit bearing of the landmark in C_j
 /// (predictBearing) and (t1, t2) an orthonormal basis of the tangent plane of the measured bearing
 /// b_j (computed once). The residual is zero for u = -b_j too:
-/// the estimator gates observations with predictedBearing().dot(b_j) > 0.
+/// the estimator gates observations with predictBearing(...).u.dot(b_j) > 0.
 /// Blocks: q_W_Ba[4], p_W_Ba[3], q_W_Bj[4], p_W_Bj[3], rho[1]. Robust loss is added by the caller.
 class BearingFactor final : public ceres::SizedCostFunction<2, 4, 3, 4, 3, 1> {
  public:
@@ -38,11 +38,6 @@ class BearingFactor final : public ceres::SizedCostFunction<2, 4, 3, 4, 3, 1> {
 
   bool Evaluate(double const* const* parameters, double* residuals,
                 double** jacobians) const override;
-
-  /// Predicted unit bearing in C_j, or nullopt when the point projects to the camera centre.
-  std::optional<Vec3> predictedBearing(const double* q_W_Ba, const double* p_W_Ba,
-                                       const double* q_W_Bj, const double* p_W_Bj,
-                                       double rho) const;
 
   /// Angular sigma from a pixel sigma and the local focal length in pixels (rad).
   static double sigmaRadFromPixels(double sigma_px, double focal_px) { return sigma_px / focal_px; }

@@ -97,9 +97,10 @@ TEST(BearingFactor, PointAtInfinityIsFiniteAndRotationOnly) {
   testing::expectJacobiansMatch(f, s.blocks(), kQuatFlags, 1e-5);
   const auto b = s.blocks();
   const auto predicted =
-      f.predictedBearing(b[0].data(), b[1].data(), b[2].data(), b[3].data(), 0.0);
+      predictBearing(s.bearing_Ca, s.T_B_C.rotation(), s.T_B_C.translation(), b[0].data(),
+                     b[1].data(), b[2].data(), b[3].data(), 0.0, true);
   ASSERT_TRUE(predicted.has_value());
-  EXPECT_GT(predicted->dot(R_Cj_Ca * s.bearing_Ca), 1.0 - 1e-12);
+  EXPECT_GT(predicted->u.dot(R_Cj_Ca * s.bearing_Ca), 1.0 - 1e-12);
 }
 
 }  // namespace
