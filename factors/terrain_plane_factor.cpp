@@ -7,9 +7,23 @@
 #include "factors/parameterization.hpp"
 
 namespace ovo::factors {
+namespace {
+
+/// p's offset over the plane g along z (e) and the length of g's normal (a, b, -1) (norm): the
+/// height over the plane is e / norm.
+struct TerrainOffset {
+  double e, norm;
+};
+
+TerrainOffset terrainOffset(const Vec3& p, const double* g) {
+  return {p.z() - g[0] * p.x() - g[1] * p.y() - g[2], std::sqrt(1.0 + g[0] * g[0] + g[1] * g[1])};
+}
+
+}  // namespace
 
 double heightOverTerrain(const Vec3& p, const double* g) {
-  return (p.z() - g[0] * p.x() - g[1] * p.y() - g[2]) / std::sqrt(1.0 + g[0] * g[0] + g[1] * g[1]);
+  const TerrainOffset o = terrainOffset(p, g);
+  return o.e / o.norm;
 }
 
 void terrainBelow(const SE3& T_W_B, const SE3& T_B_C, double camera_height_m, double* g) {
@@ -42,8 +56,7 @@ bool TerrainPointFactor::Evaluate(double const* const* parameters, double* resid
   const Mat3 R = quatFromBlock(q).toRotationMatrix();
   const Vec3 Ru = R * (dir_B_ / rho + t_B_C_);
   const Vec3 p_W = Ru + p;
-  const double norm = std::sqrt(1.0 + g[0] * g[0] + g[1] * g[1]);
-  const double e = p_W.z() - g[0] * p_W.x() - g[1] * p_W.y() - g[2];
+  const auto [e, norm] = terrainOffset(p_W, g);
   residuals[0] = e / norm * inv_sigma_;
   if (!jacobians) return true;
   const Eigen::RowVector3d dr_dpW = Eigen::RowVector3d(-g[0], -g[1], 1.0) * (inv_sigma_ / norm);
