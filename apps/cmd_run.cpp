@@ -77,7 +77,7 @@ int runRun(const RunArgs& args) {
   // An estimator that uses the LiDAR may take the camera height from it when the rig gives none
   // (vo, the plain camera chain, stays without).
   std::vector<std::string> setup_notes;
-  if (args.estimator != "vo" && config.get<bool>(args.estimator + ".use_lidar", true))
+  if (estimator::estimatorUsesLidar(args.estimator, config))
     if (auto note = cameraHeightFromScans(data, &setup)) setup_notes.push_back(*note);
   auto est = estimator::makeEstimator(args.estimator, setup, config);
   config.checkAllUsed();  // unknown keys are errors, before any work is done

@@ -4,6 +4,7 @@
 #include "estimator/kf_estimator.hpp"
 #include "estimator/vo_estimator.hpp"
 #include "estimator/window_estimator.hpp"
+#include "estimator/window_options.hpp"
 
 namespace ovo::estimator {
 
@@ -18,6 +19,12 @@ std::unique_ptr<Estimator> makeEstimator(const std::string& name, const SensorSe
   if (name == "kf") return makeKfEstimator(setup, config);
   if (name == "window") return makeWindowEstimator(setup, config);
   fail("unknown estimator '{}': expected window, kf or vo", name);
+}
+
+bool estimatorUsesLidar(const std::string& name, const Config& config) {
+  if (name == "kf") return config.get<bool>("kf.use_lidar", KfEstimatorOptions{}.use_lidar);
+  if (name == "window") return config.get<bool>("window.use_lidar", WindowOptions{}.use_lidar);
+  return false;
 }
 
 }  // namespace ovo::estimator

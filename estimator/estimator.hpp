@@ -169,4 +169,10 @@ std::unique_ptr<Frame> frontendFrameAs(std::unique_ptr<FrontendFrame> frame,
 std::unique_ptr<Estimator> makeEstimator(const std::string& name, const SensorSetup& setup,
                                          const Config& config);
 
+/// True when the estimator makeEstimator(name, ..., config) would use the LiDAR's scans given a
+/// dataset that has them: kf and window unless their use_lidar is false; vo (the plain camera
+/// chain) and unknown names never. Callers set up what only a LiDAR user needs (the camera height
+/// measured from the scans) before creating the estimator.
+bool estimatorUsesLidar(const std::string& name, const Config& config);
+
 }  // namespace ovo::estimator
