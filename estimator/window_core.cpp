@@ -811,19 +811,18 @@ bool WindowCore::rescaleToLidar() {
   const double s = 1.0 / *ratio;
   // About the oldest keyframe: the trajectory before the window stays where it is.
   const Vec3 centre = map_.keyframes.front()->pose().translation();
-  std::vector<const double*> positions, terrains;
+  const factors::TerrainScaling terrain = factors::terrainScaling(centre, s);
+  std::vector<factors::MarginalizationInfo::BlockMap> moved;
   for (auto& kf : map_.keyframes) {
     Eigen::Map<Vec3> p(kf->p_W_B);
     p = centre + s * (p - centre);
-    positions.push_back(kf->p_W_B);
+    moved.push_back(factors::MarginalizationInfo::scaling(kf->p_W_B, centre, s));
     if (kf->terrain_set) factors::scaleTerrain(kf->terrain, centre, s);
-    terrains.push_back(kf->terrain);
+    moved.push_back({kf->terrain, terrain.M, terrain.k});
     kf->lidar_rejected.clear();  // rejected at the wrong scale
   }
   for (auto& [id, lm] : map_.landmarks) lm.rho[0] /= s;
-  if (gauge_.marginalization)
-    gauge_.marginalization =
-        gauge_.marginalization->scaledPositions(positions, centre, s, terrains);
+  if (gauge_.marginalization) gauge_.marginalization = gauge_.marginalization->mapped(moved);
   if (map_.find(gauge_.kf_id) != nullptr)  // a pose prior on a keyframe of the window moves too
     gauge_.T_W_B.translation() = centre + s * (gauge_.T_W_B.translation() - centre);
   velocity_W_ *= s;

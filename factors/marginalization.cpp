@@ -250,37 +250,27 @@ bool MarginalizationInfo::marginalize() {
   return true;
 }
 
-std::shared_ptr<const MarginalizationInfo> MarginalizationInfo::scaledPositions(
-    const std::vector<const double*>& position_blocks, const Eigen::Vector3d& centre, double s,
-    const std::vector<const double*>& terrain_blocks) const {
+MarginalizationInfo::BlockMap MarginalizationInfo::scaling(const double* block,
+                                                           const Eigen::Vector3d& centre,
+                                                           double s) {
+  return {block, s * Eigen::Matrix3d::Identity(), (1.0 - s) * centre};
+}
+
+std::shared_ptr<const MarginalizationInfo> MarginalizationInfo::mapped(
+    const std::vector<BlockMap>& maps) const {
   auto out = std::make_shared<MarginalizationInfo>(*this);
-  const auto listed = [](const std::vector<const double*>& list, const double* block) {
-    return std::find(list.begin(), list.end(), block) != list.end();
-  };
-  // x' = M x + k for positions (M = s I) and terrain planes (slopes kept, the height at the
-  // centre scaled). The prior r = S dx + e0 in dx' = M dx: the block's columns of S (and of H
-  // with its rows, and b) times M^-1.
+  // The prior r = S dx + e0 in dx' = M dx: the block's columns of S (and of H with its rows, and
+  // b) times M^-1.
   int offset = 0;
   for (double* kept : kept_) {
     Block& b = out->blocks_.at(kept);
-    const bool vec3 = !b.quaternion && b.ambient == 3;
-    Eigen::Matrix3d M = Eigen::Matrix3d::Identity();
-    Eigen::Vector3d k = Eigen::Vector3d::Zero();
-    bool mapped = false;
-    if (vec3 && listed(position_blocks, kept)) {
-      M *= s;
-      k = (1.0 - s) * centre;
-      mapped = true;
-    } else if (vec3 && listed(terrain_blocks, kept)) {
-      M.row(2) << (s - 1.0) * centre.x(), (s - 1.0) * centre.y(), s;
-      k.z() = (1.0 - s) * centre.z();
-      mapped = true;
-    }
-    if (mapped) {
+    const auto map =
+        std::find_if(maps.begin(), maps.end(), [&](const BlockMap& m) { return m.block == kept; });
+    if (map != maps.end() && !b.quaternion && b.ambient == 3) {
       const Eigen::Map<Eigen::Vector3d> x0(b.x0.data());
-      const Eigen::Vector3d moved = M * x0 + k;
+      const Eigen::Vector3d moved = map->M * x0 + map->k;
       std::copy_n(moved.data(), 3, b.x0.data());
-      const Eigen::Matrix3d Minv = M.inverse();
+      const Eigen::Matrix3d Minv = map->M.inverse();
       out->S_.middleCols(offset, 3) = (out->S_.middleCols(offset, 3) * Minv).eval();
       out->H_prior_.middleCols(offset, 3) = (out->H_prior_.middleCols(offset, 3) * Minv).eval();
       out->H_prior_.middleRows(offset, 3) =

@@ -56,16 +56,21 @@ class MarginalizationInfo {
   /// Linearisation point of a kept block (its ambient values at addResidualBlock time).
   const std::vector<double>& linearizationPoint(const double* block) const;
 
-  /// This prior for the kept states scaled about `centre`: each of `position_blocks` (kept
-  /// 3-vectors) maps x -> centre + s (x - centre). The copy holds the same shape at s times the
-  /// size: its linearisation point moves with the states and its Jacobian columns of those
-  /// blocks are divided by s, so at the scaled states it has the residual this one has at the
-  /// old ones. Each of `terrain_blocks` (kept terrain planes z = a x + b y + c,
-  /// factors/terrain_plane_factor.hpp) keeps its slopes, and its height over the centre scales
-  /// by s, as factors::scaleTerrain. Blocks not kept, or not 3-vectors, are ignored.
-  std::shared_ptr<const MarginalizationInfo> scaledPositions(
-      const std::vector<const double*>& position_blocks, const Eigen::Vector3d& centre, double s,
-      const std::vector<const double*>& terrain_blocks = {}) const;
+  /// A kept 3-vector block whose states moved by x -> M x + k (M invertible).
+  struct BlockMap {
+    const double* block = nullptr;
+    Eigen::Matrix3d M = Eigen::Matrix3d::Identity();
+    Eigen::Vector3d k = Eigen::Vector3d::Zero();
+  };
+  /// The affine map of a position scaled about `centre`: x -> centre + s (x - centre).
+  static BlockMap scaling(const double* block, const Eigen::Vector3d& centre, double s);
+
+  /// This prior for states moved by `maps` (e.g. the window rescaled: positions by scaling(),
+  /// terrain planes by factors::terrainScaling). The copy holds the same shape in the new
+  /// coordinates: its linearisation points move with the states and its Jacobian columns of
+  /// those blocks are multiplied by M^-1, so at the moved states it has the residual this one
+  /// has at the old ones. Blocks not kept, or not 3-vectors, are ignored.
+  std::shared_ptr<const MarginalizationInfo> mapped(const std::vector<BlockMap>& maps) const;
 
  private:
   struct Block {

@@ -35,10 +35,19 @@ void terrainBelow(const SE3& T_W_B, const SE3& T_B_C, double camera_height_m, do
   g[2] = foot.z() - g[0] * foot.x() - g[1] * foot.y();
 }
 
+TerrainScaling terrainScaling(const Vec3& centre, double s) {
+  // z' - C_z = s (z - C_z) for every point: the slopes stay, the height at the centre scales,
+  // c' = s c + (s - 1) (a C_x + b C_y) + (1 - s) C_z.
+  TerrainScaling t{Mat3::Identity(), Vec3::Zero()};
+  t.M.row(2) << (s - 1.0) * centre.x(), (s - 1.0) * centre.y(), s;
+  t.k.z() = (1.0 - s) * centre.z();
+  return t;
+}
+
 void scaleTerrain(double* g, const Vec3& centre, double s) {
-  // z' - C_z = s (z - C_z) for every point: the slopes stay, the height at the centre scales.
-  const double at_centre = g[0] * centre.x() + g[1] * centre.y() + g[2] - centre.z();
-  g[2] = centre.z() - g[0] * centre.x() - g[1] * centre.y() + s * at_centre;
+  const TerrainScaling t = terrainScaling(centre, s);
+  Eigen::Map<Vec3> v(g);
+  v = (t.M * v + t.k).eval();
 }
 
 TerrainPointFactor::TerrainPointFactor(const Vec3& bearing_Ca, const SE3& T_B_C, double sigma_m)

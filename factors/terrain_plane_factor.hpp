@@ -19,7 +19,14 @@ double heightOverTerrain(const Vec3& p, const double* g);
 /// The plane g through the point below the camera at camera_height_m along the body's z axis
 /// (the ground a robot stands on, before anything else is known of it).
 void terrainBelow(const SE3& T_W_B, const SE3& T_B_C, double camera_height_m, double* g);
-/// The same plane after the positions are scaled about centre (p' = centre + s (p - centre)).
+/// A plane g's change when the positions are scaled about centre (p' = centre + s (p - centre)):
+/// g' = M g + k, the slopes kept and the height over the centre scaled by s.
+struct TerrainScaling {
+  Mat3 M;
+  Vec3 k;
+};
+TerrainScaling terrainScaling(const Vec3& centre, double s);
+/// The same plane after the positions are scaled about centre (terrainScaling applied to g).
 void scaleTerrain(double* g, const Vec3& centre, double s);
 
 /// A ground landmark anchored in keyframe a (unit bearing b_a in C_a, inverse depth rho) lies on

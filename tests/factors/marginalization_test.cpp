@@ -401,8 +401,8 @@ TEST_F(NonlinearWindow, ScaledPriorHasTheSameResidualAtTheScaledPositions) {
   ASSERT_TRUE(info);
   const Vec3 centre(0.3, -0.2, 0.1);
   const double s = 1.7;
-  const std::vector<const double*> positions = {p_[1].data(), p_[2].data()};
-  const auto scaled = info->scaledPositions(positions, centre, s);
+  const auto scaled = info->mapped({MarginalizationInfo::scaling(p_[1].data(), centre, s),
+                                    MarginalizationInfo::scaling(p_[2].data(), centre, s)});
 
   // Some state away from the linearisation point, and the same state scaled about the centre.
   const std::vector<std::vector<double>> values = awayFromLinearization(*info, 33);
@@ -455,9 +455,13 @@ TEST_F(NonlinearWindow, ScaledPriorMapsTerrainPlanesAsTheirPointsScale) {
   ASSERT_TRUE(info);
   const Vec3 centre(0.3, -0.2, 0.1);
   const double s = 0.8;
-  const std::vector<const double*> positions = {p_[1].data(), p_[2].data()};
-  const std::vector<const double*> terrains = {b_[1].data()};
-  const auto scaled = info->scaledPositions(positions, centre, s, terrains);
+  const std::vector<MarginalizationInfo::BlockMap> positions = {
+      MarginalizationInfo::scaling(p_[1].data(), centre, s),
+      MarginalizationInfo::scaling(p_[2].data(), centre, s)};
+  const TerrainScaling terrain = terrainScaling(centre, s);
+  std::vector<MarginalizationInfo::BlockMap> with_terrain = positions;
+  with_terrain.push_back({b_[1].data(), terrain.M, terrain.k});
+  const auto scaled = info->mapped(with_terrain);
   const std::vector<std::vector<double>> values = awayFromLinearization(*info, 34);
   std::vector<std::vector<double>> values_scaled;
   for (std::size_t i = 0; i < values.size(); ++i) {
@@ -475,7 +479,7 @@ TEST_F(NonlinearWindow, ScaledPriorMapsTerrainPlanesAsTheirPointsScale) {
   EXPECT_GT(r.norm(), 1e-3);
   EXPECT_LT((r - r_scaled).norm(), 1e-9 * std::max(1.0, r.norm()));
   // Not mapping the plane leaves its height over the centre unscaled: another residual.
-  const auto positions_only = info->scaledPositions(positions, centre, s);
+  const auto positions_only = info->mapped(positions);
   const Eigen::VectorXd r_unmapped =
       testing::evaluate(MarginalizationFactor(positions_only), values_scaled);
   EXPECT_GT((r - r_unmapped).norm(), 1e-6);
