@@ -100,9 +100,9 @@ WindowCore::WindowCore(const SensorSetup& setup, const WindowOptions& options,
   model_.bearing_steps = options.bearing_steps && options.track_creep_px > 0.0;
   model_.step_white_rad = options.track_white_px / camera::focalPx(setup.camera);
   model_.lidar_ground_sigma_m = options.lidar_ground_sigma_m;
-  model_.lidar_sigma_m = std::hypot(
-      options.lidar_range_sigma_m > 0.0 ? options.lidar_range_sigma_m : setup.lidar_range_sigma_m,
-      options.lidar_association_sigma_m);
+  model_.lidar_range_sigma_m =
+      options.lidar_range_sigma_m > 0.0 ? options.lidar_range_sigma_m : setup.lidar_range_sigma_m;
+  model_.lidar_sigma_m = std::hypot(model_.lidar_range_sigma_m, options.lidar_association_sigma_m);
   model_.lidar_huber = options.lidar_huber_sigmas;
   model_.lidar_cauchy = options.lidar_loss == "cauchy";
   model_.bias_random_walk = options.gyro_bias_random_walk > 0.0 ? options.gyro_bias_random_walk
@@ -748,7 +748,8 @@ std::vector<WindowCore::LidarRange> WindowCore::lidarRangesAt(const Keyframe& kf
         const auto d =
             groundRangeAlongRay(hit_L, up_L, T_L_C.translation(), T_L_C.rotation() * o.bearing_C);
         if (!d) continue;
-        range = {{id, up_L.dot(hit_L), false, up_L}, d_xy, *d, true};
+        range = {
+            {id, up_L.dot(hit_L), false, up_L, groundIncidenceSine(hit_L, up_L)}, d_xy, *d, true};
       }
       out.push_back(range);
     }

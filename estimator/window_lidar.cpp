@@ -63,6 +63,11 @@ std::optional<double> groundRangeAlongRay(const Vec3& hit_L, const Vec3& up_L, c
   return std::isfinite(d) ? std::optional<double>(d) : std::nullopt;
 }
 
+double groundIncidenceSine(const Vec3& hit_L, const Vec3& up_L) {
+  const double r = hit_L.norm();
+  return r > 0.0 ? std::abs(up_L.dot(hit_L)) / r : 0.0;
+}
+
 std::vector<BeamMatch> associateBeams(const std::vector<BeamInImage>& beams,
                                       const std::vector<TrackObservation>& observations,
                                       double radius_px) {

@@ -41,6 +41,12 @@ std::optional<double> interpolateRange(const LidarScan& scan, double phi_rad,
 std::optional<double> groundRangeAlongRay(const Vec3& hit_L, const Vec3& up_L, const Vec3& c_L,
                                           const Vec3& b_L);
 
+/// The sine of the angle at which the beam from the LiDAR to hit_L meets the plane with unit
+/// normal up_L: the fraction of the beam's range noise that moves its end point off that plane
+/// (small for a pitched LiDAR's grazing ground beams, so the plane's height is known far better
+/// than the range). 0 for hit_L at the origin.
+double groundIncidenceSine(const Vec3& hit_L, const Vec3& up_L);
+
 /// A beam paired with an observation (nearest within radius_px; each track used once, by its
 /// nearest beam).
 struct BeamMatch {

@@ -42,6 +42,8 @@ struct LidarAssociation {
   bool planar = false;  // range interpolated at the landmark's azimuth: compare in the scan plane
   Vec3 ground_up_L = Vec3::Zero();  // non-zero: a ground beam's end; the landmark lies on the
                                     // ground plane up_L . p_L = range_m (lidar_ground_beams plane)
+  double ground_sin = 0.0;  // ... the sine of the angle at which that beam meets the ground: its
+                            // range noise moves the beam end off the plane by this fraction
 };
 
 /// A keyframe: its states (Ceres blocks) and what it observed. Made with the LiDAR's pose for

@@ -92,28 +92,27 @@ struct WindowOptions {
   double terrain_height_walk = 0.002;  // change of its height, m per sqrt(m) driven
 
   // LiDAR association.
-  double lidar_radius_px = 4.0;            // beam end point to observation, px
-  double lidar_depth_gate = 0.25;          // relative depth agreement once the scale is set
-  double lidar_edge_step = 0.05;           // beams used only on smooth surfaces: adjacent ranges
-                                           // differ by less than this fraction of the range
-  int lidar_edge_neighbours = 2;           // ... over this many beams on each side (0: off)
-  std::string lidar_ground_beams = "raw";  // with lidar_interpolate, beams ending on the ground
-                                           // (0.7 camera heights below the camera; needs the
-                                           // rig's camera height) meet it grazing, so their
-                                           // range hangs on the elevation. raw: the beam's
-                                           // range; skip: not used (loses scale: measured
-                                           // worse); plane: the landmark lies on the ground
-                                           // plane (body up) through the beam end, its height
-                                           // off it lidar_ground_sigma_m
-  double lidar_ground_sigma_m = 0.02;      // ... that height's noise, m
-  bool lidar_interpolate = true;           // associate landmarks near the scan plane with the range
-  double lidar_max_elevation_deg = 1.0;    // interpolated at their azimuth (false: nearest beam end
-                                           // within lidar_radius_px); elevation gate, deg
-  double lidar_outlier_sigmas = 3.0;       // after a solve an association is removed when its
-  double lidar_outlier_fraction = 0.05;    // residual exceeds this many sigmas and this fraction
-                                           // of the range
-  std::string lidar_loss = "huber";        // robust loss of LiDAR factors: huber | cauchy
-  double lidar_scan_time_tol_s = 0.004;    // a scan belongs to a frame within this time, s
+  double lidar_radius_px = 4.0;    // beam end point to observation, px
+  double lidar_depth_gate = 0.25;  // relative depth agreement once the scale is set
+  double lidar_edge_step = 0.05;   // beams used only on smooth surfaces: adjacent ranges
+                                   // differ by less than this fraction of the range
+  int lidar_edge_neighbours = 2;   // ... over this many beams on each side (0: off)
+  // With lidar_interpolate, beams ending on the ground (0.7 camera heights below the camera; needs
+  // the rig's camera height) meet it grazing, so their range hangs on the elevation. plane: the
+  // landmark lies on the ground plane (body up) through the beam end, its height off it known to
+  // lidarSigma (window_problem.hpp); raw: the beam's range (biased long: measured worse); skip:
+  // not used (loses scale: measured worse).
+  std::string lidar_ground_beams = "plane";
+  double lidar_ground_sigma_m = 0.002;   // the ground's own departure from that plane (its
+                                         // roughness, the body's tilt against it), m
+  bool lidar_interpolate = true;         // associate landmarks near the scan plane with the range
+  double lidar_max_elevation_deg = 1.0;  // interpolated at their azimuth (false: nearest beam end
+                                         // within lidar_radius_px); elevation gate, deg
+  double lidar_outlier_sigmas = 3.0;     // after a solve an association is removed when its
+  double lidar_outlier_fraction = 0.05;  // residual exceeds this many sigmas and this fraction
+                                         // of the range
+  std::string lidar_loss = "huber";      // robust loss of LiDAR factors: huber | cauchy
+  double lidar_scan_time_tol_s = 0.004;  // a scan belongs to a frame within this time, s
   // A frame without one takes the latest scan up to this much older, its LiDAR pose moved by the
   // motion since (a LiDAR out of step with the camera; scanFor); 0: none, s.
   double lidar_scan_max_age_s = 0.05;

@@ -168,8 +168,7 @@ std::vector<FactorSpec> buildFactors(const std::vector<Keyframe*>& keyframes,
         f.loss = std::make_unique<ceres::CauchyLoss>(model.lidar_huber);
       else
         f.loss = std::make_unique<ceres::HuberLoss>(model.lidar_huber);
-      const double sigma =
-          a.ground_up_L.isZero() ? model.lidar_sigma_m : model.lidar_ground_sigma_m;
+      const double sigma = lidarSigma(a, model);
       if (anchor_it->second == kf) {
         f.cost = std::make_unique<factors::LidarRangeAnchorFactor>(
             lm.bearing_anchor_C, a.range_m, model.T_B_C, kf->T_B_L, sigma, a.planar, a.ground_up_L);
@@ -355,6 +354,11 @@ SolveSummary solveFactors(std::vector<FactorSpec> factors, const std::vector<Key
   return summary;
 }
 
+double lidarSigma(const LidarAssociation& a, const WindowModel& model) {
+  if (a.ground_up_L.isZero()) return model.lidar_sigma_m;
+  return std::hypot(model.lidar_range_sigma_m * a.ground_sin, model.lidar_ground_sigma_m);
+}
+
 bool lidarOutlier(const LidarAssociation& a, const Vec3& p_W, const Keyframe& kf,
                   const WindowModel& model, double gate_sigmas, double gate_fraction) {
   const SE3 T_L_W = (kf.pose() * kf.T_B_L).inverse();
@@ -362,7 +366,7 @@ bool lidarOutlier(const LidarAssociation& a, const Vec3& p_W, const Keyframe& kf
   if (!value) return true;  // the landmark sits on the LiDAR
   const double gate = a.ground_up_L.isZero()
                           ? std::max(gate_sigmas * model.lidar_sigma_m, gate_fraction * a.range_m)
-                          : gate_sigmas * model.lidar_ground_sigma_m;
+                          : gate_sigmas * lidarSigma(a, model);
   return std::abs(*value - a.range_m) > gate;
 }
 

@@ -43,12 +43,13 @@ struct WindowModel {
   SE3 T_B_C = SE3::Identity();             // (the LiDAR's pose is each keyframe's: Keyframe::T_B_L)
   double bearing_sigma_rad = 0.5 / 305.0;  // pixel sigma / focal px
   double bearing_huber = 2.0;              // Huber threshold on the whitened residual (sigmas)
-  double bearing_creep_rad = 0.0;  // track creep per sqrt(frame) between anchor and observation
-  bool bearing_steps = false;      // sightings after a track's first: BearingStepFactor from the
-  double step_white_rad = 0.0;     // previous one, whose sighting noise it carries too
-  double lidar_sigma_m = 0.02;
-  double lidar_ground_sigma_m = 0.02;  // height of a landmark on a ground beam's plane, m
-  double lidar_huber = 2.0;            // robust loss threshold on the whitened residual (sigmas)
+  double bearing_creep_rad = 0.0;     // track creep per sqrt(frame) between anchor and observation
+  bool bearing_steps = false;         // sightings after a track's first: BearingStepFactor from the
+  double step_white_rad = 0.0;        // previous one, whose sighting noise it carries too
+  double lidar_sigma_m = 0.02;        // a range to a landmark (range and association noise), m
+  double lidar_range_sigma_m = 0.02;  // the LiDAR's range noise alone, m
+  double lidar_ground_sigma_m = 0.002;  // the ground's own departure from a ground beam's plane, m
+  double lidar_huber = 2.0;             // robust loss threshold on the whitened residual (sigmas)
   bool lidar_cauchy = false;         // Cauchy (an association far off pulls ever less), else Huber
   double bias_random_walk = 2.0e-5;  // rad/s^2/sqrt(Hz)
   double vision_rotation_sigma_rad = 0.0;  // a keyframe's orientation error as the vision sees
@@ -145,11 +146,18 @@ std::vector<ObservationError> observationErrors(const std::vector<Keyframe*>& ke
                                                 const std::unordered_map<TrackId, Landmark>& lms,
                                                 const WindowModel& model);
 
+/// The noise of association a's measurement (m): lidar_sigma_m for a range; for a ground-plane
+/// association (ground_up_L non-zero), the beam's range noise seen off the plane
+/// (lidar_range_sigma_m * ground_sin: a beam meeting the ground at a grazing angle pins the plane's
+/// height far better than its range) and the ground's own departure from the plane
+/// (lidar_ground_sigma_m), in quadrature.
+double lidarSigma(const LidarAssociation& a, const WindowModel& model);
+
 /// The window's LiDAR gate: true when the range association a of keyframe kf measured and the
 /// range to the landmark point p_W, seen from where kf's scan was taken (kf.T_B_L; in the scan
 /// plane when planar), differ by more than max(gate_sigmas * lidar_sigma_m, gate_fraction *
 /// range); for a ground-plane association, when the landmark's height off that plane exceeds
-/// gate_sigmas * lidar_ground_sigma_m.
+/// gate_sigmas * lidarSigma(a).
 bool lidarOutlier(const LidarAssociation& a, const Vec3& p_W, const Keyframe& kf,
                   const WindowModel& model, double gate_sigmas, double gate_fraction);
 

@@ -57,6 +57,22 @@ TEST(GroundRangeAlongRay, ARayThatDoesNotGoDownToTheGroundGivesNothing) {
   EXPECT_FALSE(groundRangeAlongRay(hit_L, up_L, c_L, R_W_L().transpose() * up_W));
 }
 
+TEST(GroundIncidenceSine, IsThePitchTimesTheAzimuthsCosineForAPitchedLidarOverFlatGround) {
+  // A beam at azimuth phi of a LiDAR pitched 8 degrees down points sin(8 deg) cos(phi) down.
+  const Vec3 up_L = R_W_L().transpose() * Vec3::UnitZ();
+  for (const double phi_deg : {0.0, 25.0, -50.0}) {
+    const double phi = phi_deg * kDeg;
+    EXPECT_NEAR(groundIncidenceSine(groundHitL(phi), up_L), std::sin(8.0 * kDeg) * std::cos(phi),
+                1e-12)
+        << phi_deg;
+    // A range error dr along that beam moves its end that much times the sine off the ground.
+    const Vec3 hit_L = groundHitL(phi), longer_L = hit_L * (1.0 + 0.05 / hit_L.norm());
+    EXPECT_NEAR(std::abs(up_L.dot(longer_L - hit_L)),
+                0.05 * groundIncidenceSine(groundHitL(phi), up_L), 1e-12);
+  }
+  EXPECT_EQ(groundIncidenceSine(Vec3::Zero(), up_L), 0.0);
+}
+
 TEST(IsGroundBeam, TellsGroundHitsFromTheCanopyByTheirDepthBelowTheCamera) {
   const double height = 1.0;                                        // camera above the ground
   const Vec3 up_C(0.0, -1.0, 0.0);                                  // camera y points down

@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <vector>
 
 #include "common/so3.hpp"
@@ -188,6 +189,38 @@ TEST(TerrainPlanes, TheOldestKeyframesPlaneGoesIntoThePriorWithIt) {
   const auto& kept = info->keptBlocks();
   EXPECT_NE(std::find(kept.begin(), kept.end(), kfs[1]->terrain), kept.end());
   EXPECT_EQ(std::find(kept.begin(), kept.end(), kfs[0]->terrain), kept.end());
+}
+
+// A ground-plane association's noise: the beam's range noise seen off the plane (the range sigma
+// times the sine of the angle at which the beam meets the ground) and the ground's own roughness,
+// in quadrature; the outlier gate measures a landmark's height off the plane against it.
+TEST(LidarSigma, AGroundBeamsPlaneIsKnownToItsRangeNoiseTimesTheGrazingSine) {
+  WindowModel m = model();
+  m.lidar_sigma_m = 0.03;
+  m.lidar_range_sigma_m = 0.02;
+  m.lidar_ground_sigma_m = 0.004;
+  LidarAssociation range;
+  range.range_m = 5.0;
+  range.planar = true;
+  EXPECT_DOUBLE_EQ(lidarSigma(range, m), 0.03);
+
+  const double sin8 = std::sin(8.0 * 3.14159265358979323846 / 180.0);
+  LidarAssociation ground;
+  ground.ground_up_L = Vec3::UnitZ();
+  ground.range_m = -0.75;  // the plane z = -0.75 in L
+  ground.ground_sin = sin8;
+  const double sigma = std::hypot(0.02 * sin8, 0.004);  // 4.9 mm
+  EXPECT_NEAR(lidarSigma(ground, m), sigma, 1e-15);
+
+  // Landmarks above the plane, seen from a keyframe at the origin whose LiDAR is its body.
+  Keyframe kf(SE3::Identity());
+  auto off = [](double dz) { return Vec3(5.0, 0.5, -0.75 + dz); };
+  EXPECT_FALSE(lidarOutlier(ground, off(0.9 * 3.0 * sigma), kf, m, 3.0, 0.05));
+  EXPECT_TRUE(lidarOutlier(ground, off(1.1 * 3.0 * sigma), kf, m, 3.0, 0.05));
+  // A beam meeting the ground head-on knows the plane only to its range noise.
+  ground.ground_sin = 1.0;
+  EXPECT_NEAR(lidarSigma(ground, m), std::hypot(0.02, 0.004), 1e-15);
+  EXPECT_FALSE(lidarOutlier(ground, off(1.1 * 3.0 * sigma), kf, m, 3.0, 0.05));
 }
 
 }  // namespace
