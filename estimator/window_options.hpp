@@ -154,7 +154,8 @@ struct WindowOptions {
   int refine_passes = 2;                      // solves, outliers removed between them
   int refine_max_span_frames = 40;            // a track becomes a new landmark after this many
                                               // frames (tracks creep: a long span ties far
-                                              // keyframes with a biased ray); 0: never
+                                              // keyframes with a biased ray); 0: never. Not
+                                              // with bearing steps: they model the creep
   bool refine_ground = true;                  // camera-height factors in the refinement
   int marginalize_max_landmarks = 0;          // ending landmarks Schur-complemented into the prior,
                                               // strongest first (the rest are dropped); 0: all
