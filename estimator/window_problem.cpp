@@ -35,6 +35,12 @@ double* gyroRotation(Keyframe& kf, const WindowModel& model) {
   return tiedRotations(model) ? kf.q_W_G : kf.q_W_B;
 }
 
+/// The bearing sigma of a sighting against one `frames` earlier on the same track (rad): the
+/// sightings' own noise (white_sq, rad^2) and the track's creep in between, which random-walks.
+double creepSigma(double white_sq, double frames, const WindowModel& model) {
+  return std::sqrt(white_sq + model.bearing_creep_rad * model.bearing_creep_rad * frames);
+}
+
 }  // namespace
 
 bool usesTerrain(const WindowModel& model) {
@@ -82,9 +88,9 @@ std::vector<FactorSpec> buildFactors(const std::vector<Keyframe*>& keyframes,
       if (model.bearing_steps && prev != nullptr) {
         const TrackObservation& oi = prev->observations.at(id);
         const double frames = std::max(0, obs->second.age - oi.age);
+        // The step's two sightings each carry their own noise.
         const double sigma_rad =
-            std::sqrt(2.0 * model.step_white_rad * model.step_white_rad +
-                      model.bearing_creep_rad * model.bearing_creep_rad * frames);
+            creepSigma(2.0 * model.step_white_rad * model.step_white_rad, frames, model);
         f.cost = std::make_unique<factors::BearingStepFactor>(
             lm.bearing_anchor_C, oi.bearing_C, obs->second.bearing_C, model.T_B_C, sigma_rad);
         f.blocks = {anchor->q_W_B, anchor->p_W_B, prev->q_W_B, prev->p_W_B,
@@ -97,8 +103,7 @@ std::vector<FactorSpec> buildFactors(const std::vector<Keyframe*>& keyframes,
           auto a = anchor->observations.find(id);
           const int frames =
               a == anchor->observations.end() ? 0 : std::max(0, obs->second.age - a->second.age);
-          sigma_rad = std::sqrt(sigma_rad * sigma_rad +
-                                model.bearing_creep_rad * model.bearing_creep_rad * frames);
+          sigma_rad = creepSigma(sigma_rad * sigma_rad, frames, model);
         }
         f.cost = std::make_unique<factors::BearingFactor>(
             lm.bearing_anchor_C, obs->second.bearing_C, model.T_B_C, sigma_rad);
