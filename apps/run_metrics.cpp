@@ -63,6 +63,22 @@ nlohmann::json computeRunMetrics(const Trajectory& estimate, const Trajectory& g
   m["gyro_gaps"] = stats.gyro_gaps;
   m["tracking_losses"] = stats.tracking_losses;
   m["notes"] = stats.notes;
+  if (stats.refine) {
+    const estimator::RefineInfo& r = *stats.refine;
+    nlohmann::json& j = m["refine"];
+    j["usable"] = r.usable;
+    j["keyframes"] = r.keyframes;
+    j["landmarks"] = r.landmarks;
+    j["bearing_factors"] = r.bearing_factors;
+    j["lidar_factors"] = r.lidar_factors;
+    j["ground_factors"] = r.ground_factors;
+    j["removed_outliers"] = r.removed_outliers;
+    j["passes"] = r.passes;
+    j["iterations"] = r.iterations;
+    if (std::isfinite(r.initial_cost)) j["initial_cost"] = r.initial_cost;
+    if (std::isfinite(r.final_cost)) j["final_cost"] = r.final_cost;
+    j["message"] = r.message;
+  }
   m["length_m"] = eval::pathLength(estimate);  // replaced by the true length when known
 
   if (!groundtruth.empty() && !estimate.empty()) {

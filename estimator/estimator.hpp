@@ -78,6 +78,23 @@ void feedUntilImage(Timestamp t_image, const std::vector<ImuSample>& imu, std::s
     sink.addScan(scans[next_scan++]);
 }
 
+/// What a full refinement (window --refine full, estimator/window_refine.hpp) did: its problem's
+/// size, passes and costs (metrics.json "refine").
+struct RefineInfo {
+  int keyframes = 0;
+  int landmarks = 0;         // landmark pieces with factors
+  int bearing_factors = 0;   // in the last pass
+  int lidar_factors = 0;     // in the last pass
+  int ground_factors = 0;    // in the last pass
+  int removed_outliers = 0;  // bearing observations and LiDAR associations, all passes
+  int passes = 0;
+  int iterations = 0;         // all passes
+  double initial_cost = 0.0;  // first pass
+  double final_cost = 0.0;    // last pass
+  bool usable = false;        // every pass gave finite states (else the online poses are kept)
+  std::string message;        // the last pass's solver message
+};
+
 /// Counters an estimator reports at the end of a run (merged into metrics.json).
 struct EstimatorStats {
   int frames = 0;
@@ -89,7 +106,8 @@ struct EstimatorStats {
   int lidar_ranges = 0;         // window: LiDAR range factors over all keyframes
   int gyro_gaps = 0;
   int tracking_losses = 0;
-  std::vector<std::string> notes;  // fallbacks said once ("no gyro: vision-only rotation", ...)
+  std::vector<std::string> notes;    // fallbacks said once ("no gyro: vision-only rotation", ...)
+  std::optional<RefineInfo> refine;  // window --refine full: the final batch
 };
 
 /// The frontend stage's result for one image, handed to the estimator stage. A self-contained

@@ -1265,6 +1265,7 @@ void WindowCore::refineAll() {
   refine_info_ =
       refineKeyframes(kfs, map_.last_point_W, model_, gauges, options_, label_ground_options_);
   if (!refine_info_.usable) note("full refinement failed: the online keyframe poses are kept");
+  stats_.refine = refine_info_;
   for (const Keyframe* kf : kfs) keepPoses(*kf);
 }
 

@@ -4,6 +4,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
+#include <string>
 
 namespace ovo::app {
 namespace {
@@ -74,6 +76,48 @@ TEST(RunMetrics, TheEstimatorsCountersAreWrittenAsTheyAre) {
   EXPECT_EQ(m["ground_scale_frames"].get<int>(), 2);
   EXPECT_EQ(m["lidar_keyframes"].get<int>(), 3);
   EXPECT_EQ(m["lidar_ranges"].get<int>(), 41);
+  EXPECT_FALSE(m.contains("refine"));  // no full refinement ran
+}
+
+TEST(RunMetrics, AFullRefinementIsReportedWithItsSizeAndCosts) {
+  const Trajectory gt = straightDrive(10, 0.04);
+  estimator::EstimatorStats stats;
+  estimator::RefineInfo r;
+  r.usable = true;
+  r.keyframes = 81;
+  r.landmarks = 5258;
+  r.bearing_factors = 17197;
+  r.ground_factors = 286;
+  r.removed_outliers = 13;
+  r.passes = 2;
+  r.iterations = 19;
+  r.initial_cost = 112861.2;
+  r.final_cost = 9966.5;
+  r.message = "Function tolerance reached.";
+  stats.refine = r;
+  const nlohmann::json m = computeRunMetrics(gt, gt, stats, {}, 0.05);
+  ASSERT_TRUE(m.contains("refine"));
+  const nlohmann::json& j = m["refine"];
+  EXPECT_TRUE(j["usable"].get<bool>());
+  EXPECT_EQ(j["keyframes"].get<int>(), 81);
+  EXPECT_EQ(j["landmarks"].get<int>(), 5258);
+  EXPECT_EQ(j["bearing_factors"].get<int>(), 17197);
+  EXPECT_EQ(j["lidar_factors"].get<int>(), 0);
+  EXPECT_EQ(j["ground_factors"].get<int>(), 286);
+  EXPECT_EQ(j["removed_outliers"].get<int>(), 13);
+  EXPECT_EQ(j["passes"].get<int>(), 2);
+  EXPECT_EQ(j["iterations"].get<int>(), 19);
+  EXPECT_DOUBLE_EQ(j["initial_cost"].get<double>(), 112861.2);
+  EXPECT_DOUBLE_EQ(j["final_cost"].get<double>(), 9966.5);
+  EXPECT_EQ(j["message"].get<std::string>(), "Function tolerance reached.");
+
+  // A failed batch has no finite costs to report: it says so instead of writing null.
+  r.usable = false;
+  r.final_cost = std::numeric_limits<double>::quiet_NaN();
+  stats.refine = r;
+  const nlohmann::json f = computeRunMetrics(gt, gt, stats, {}, 0.05)["refine"];
+  EXPECT_FALSE(f["usable"].get<bool>());
+  EXPECT_FALSE(f.contains("final_cost"));
 }
 
 }  // namespace

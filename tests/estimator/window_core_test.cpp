@@ -826,6 +826,8 @@ TEST(WindowCore, FullRefinementMatchesTheOnlineWindow) {
       for (const auto& p : full) ASSERT_TRUE(allFinite(p.T_W_B));
       const RefineInfo& info = core.refineInfo();
       EXPECT_TRUE(info.usable) << info.message;
+      ASSERT_TRUE(core.stats().refine.has_value());  // what metrics.json reports
+      EXPECT_EQ(core.stats().refine->bearing_factors, info.bearing_factors);
       EXPECT_EQ(info.keyframes, core.stats().keyframes);
       EXPECT_EQ(info.passes, refine.refine_passes);
       EXPECT_GT(info.lidar_factors, 0);
