@@ -1262,10 +1262,9 @@ void WindowCore::refineAll() {
   std::vector<WindowGauge> gauges = segment_gauges_;
   for (WindowGauge& g : gauges)
     if (auto T_W_B = keyframePose(g.kf_id)) g.T_W_B = *T_W_B;
-  refine_info_ =
+  stats_.refine =
       refineKeyframes(kfs, map_.last_point_W, model_, gauges, options_, label_ground_options_);
-  if (!refine_info_.usable) note("full refinement failed: the online keyframe poses are kept");
-  stats_.refine = refine_info_;
+  if (!stats_.refine->usable) note("full refinement failed: the online keyframe poses are kept");
   for (const Keyframe* kf : kfs) keepPoses(*kf);
 }
 

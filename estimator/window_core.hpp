@@ -63,8 +63,6 @@ class WindowCore {
   bool initialized() const { return initialized_; }
   const WindowMap& map() const { return map_; }
   const WindowSolveInfo& lastSolve() const { return last_solve_; }
-  /// What the full refinement did (empty before finish() or without --refine full).
-  const RefineInfo& refineInfo() const { return refine_info_; }
   /// What holds the window's gauge now (first-keyframe priors or the marginalisation prior).
   const WindowGauge& gauge() const { return gauge_; }
   const WindowOptions& options() const { return options_; }
@@ -259,7 +257,6 @@ class WindowCore {
   std::vector<std::pair<Timestamp, Vec3>> bias_history_;
   EstimatorStats stats_;
   WindowSolveInfo last_solve_;
-  RefineInfo refine_info_;
   bool in_gap_ = false;
   bool finished_ = false;
 };

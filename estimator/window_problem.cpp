@@ -369,9 +369,9 @@ bool lidarOutlier(const LidarAssociation& a, const Vec3& p_W, const Keyframe& kf
   const SE3 T_L_W = (kf.pose() * kf.T_B_L).inverse();
   const auto value = factors::lidarMeasuredValue(T_L_W * p_W, a.planar, a.ground_up_L);
   if (!value) return true;  // the landmark sits on the LiDAR
-  const double gate = a.ground_up_L.isZero()
-                          ? std::max(gate_sigmas * model.lidar_sigma_m, gate_fraction * a.range_m)
-                          : gate_sigmas * lidarSigma(a, model);
+  const double gate_sigma = gate_sigmas * lidarSigma(a, model);
+  const double gate =
+      a.ground_up_L.isZero() ? std::max(gate_sigma, gate_fraction * a.range_m) : gate_sigma;
   return std::abs(*value - a.range_m) > gate;
 }
 
