@@ -115,6 +115,7 @@ WindowOptions readWindowOptions(const Config& c) {
   o.refine = c.getChoice(p + "refine", o.refine, {"none", "full"});
   o.refine_iterations = c.getIntInRange(p + "refine_iterations", o.refine_iterations, 1, 1000);
   o.refine_passes = c.getIntInRange(p + "refine_passes", o.refine_passes, 1, 10);
+  o.refine_bearing_steps = c.get<bool>(p + "refine_bearing_steps", o.refine_bearing_steps);
   o.refine_max_span_frames =
       c.getIntInRange(p + "refine_max_span_frames", o.refine_max_span_frames, 0, 1000000);
   o.refine_ground = c.get<bool>(p + "refine_ground", o.refine_ground);

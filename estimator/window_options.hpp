@@ -43,7 +43,7 @@ struct WindowOptions {
   double track_creep_px = 0.2;        // a track's random walk, px per sqrt(frame) (measured on the
                                 // simulated rows: 0.38 px after 1 frame, 0.9 after 10, 1.8 after
                                 // 40): added to the bearing sigma between anchor and observation
-  bool bearing_steps = false;    // a track's sightings after its first are tied to the previous
+  bool bearing_steps = true;     // a track's sightings after its first are tied to the previous
                                  // sighting (BearingStepFactor), not to the anchor: the steps of
                                  // a random walk are independent, its errors against the anchor
                                  // are not (no effect with track_creep_px 0)
@@ -152,10 +152,13 @@ struct WindowOptions {
   std::string refine = "none";                // none | full (offline: re-optimise all keyframes)
   int refine_iterations = 30;                 // full refinement iterations per pass
   int refine_passes = 2;                      // solves, outliers removed between them
+  bool refine_bearing_steps = false;          // the refinement's own bearing_steps (anchor
+                                              // factors: better on KITTI 07 and the simulated
+                                              // runs, see README)
   int refine_max_span_frames = 40;            // a track becomes a new landmark after this many
                                               // frames (tracks creep: a long span ties far
                                               // keyframes with a biased ray); 0: never. Not
-                                              // with bearing steps: they model the creep
+                                              // with refine_bearing_steps: they model the creep
   bool refine_ground = true;                  // camera-height factors in the refinement
   int marginalize_max_landmarks = 0;          // ending landmarks Schur-complemented into the prior,
                                               // strongest first (the rest are dropped); 0: all

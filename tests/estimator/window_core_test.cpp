@@ -791,20 +791,31 @@ PoseRmse poseRmse(const SyntheticSequence& seq, const Trajectory& traj, std::siz
 
 TEST(WindowCore, FullRefinementMatchesTheOnlineWindow) {
   // 12 s drives, most keyframes marginalised online, with tracks that creep (0.2 px per
-  // sqrt(frame)); the batch has an outlier pass. With anchor factors (the default) it cuts tracks
-  // into pieces of at most 40 frames; with bearing steps, which model the creep, it keeps them
-  // whole. One draw decides little (the batch's RMSE over seeds 2..6 ranges 0.006 to 0.028 m),
-  // so the claim is checked over five: in sum the batch is at least as good as the online window,
-  // and no drive leaves the product's bound (ATE 0.5 % of the path). Measured:
-  //   anchor factors: online 0.0101 0.0133 0.0421 0.0089 0.0121 m, batch 0.0069 0.0190 0.0275
+  // sqrt(frame)); the batch has an outlier pass. With anchor factors the batch cuts tracks into
+  // pieces of at most 40 frames; with bearing steps, which model the creep, it keeps them whole.
+  // One draw decides little (the batch's RMSE over seeds 2..6 ranges 0.006 to 0.028 m), so the
+  // claims are checked over five: in sum the batch is at least as good as the online window when
+  // both use the same factors, and no drive leaves the product's bound (ATE 0.5 % of the path).
+  // Measured (online / batch factors):
+  //   anchors/anchors: online 0.0101 0.0133 0.0421 0.0089 0.0121 m, batch 0.0069 0.0190 0.0275
   //     0.0060 0.0239 m (sums 0.087 and 0.083);
-  //   bearing steps: online 0.0079 0.0064 0.0369 0.0086 0.0089 m, batch 0.0079 0.0070 0.0157
-  //     0.0128 0.0098 m (sums 0.069 and 0.053).
+  //   steps/steps: online 0.0079 0.0064 0.0369 0.0086 0.0089 m, batch 0.0079 0.0070 0.0157
+  //     0.0128 0.0098 m (sums 0.069 and 0.053);
+  //   steps/anchors (the defaults: anchor factors keep KITTI 07's scale, and do better on the
+  //     simulated runs, whose tracks do not creep as a pure random walk): batch 0.0182 0.0144
+  //     0.0262 0.0079 0.0117 m (sum 0.078, 1.14x the online window's): bound 1.2x.
   // Fails with steps if the batch cuts tracks after 40 frames (sum 0.102 m), and with the ground
   // beams' raw ranges (window.lidar_ground_beams=raw, biased long) even with anchor factors:
   // 0.047 against 0.015 m on seed 2 (sums 0.113 and 0.073).
-  for (const bool steps : {false, true}) {
-    SCOPED_TRACE(steps ? "bearing steps" : "anchor factors");
+  struct Models {
+    bool online_steps, refine_steps;
+    const char* name;
+    double max_ratio;  // batch sum / online sum
+  };
+  for (const Models m :
+       {Models{false, false, "anchors/anchors", 1.1}, Models{true, false, "steps/anchors", 1.2},
+        Models{true, true, "steps/steps", 1.1}}) {
+    SCOPED_TRACE(m.name);
     double online_sum = 0.0, full_sum = 0.0, rot_online_sum = 0.0, rot_full_sum = 0.0;
     const std::vector<std::uint32_t> seeds = {2, 3, 4, 5, 6};
     for (const std::uint32_t seed : seeds) {
@@ -815,10 +826,11 @@ TEST(WindowCore, FullRefinementMatchesTheOnlineWindow) {
       o.seed = seed;
       const auto seq = makeSyntheticSequence(o);
       WindowOptions options;
-      options.bearing_steps = steps;
+      options.bearing_steps = m.online_steps;
       const auto online = run(seq, options);
       WindowOptions refine = options;
       refine.refine = "full";
+      refine.refine_bearing_steps = m.refine_steps;
       WindowCore core(seq.setup, refine);
       test::feedSequence(seq, core, [](std::size_t, const FrameEstimate&) {});
       const Trajectory full = core.trajectory();
@@ -844,15 +856,15 @@ TEST(WindowCore, FullRefinementMatchesTheOnlineWindow) {
       std::printf(
           "%s, seed %u: position RMSE online %.4f m, full %.4f m (path %.1f m); rotation "
           "RMSE online %.3f deg, full %.3f deg\n",
-          steps ? "steps" : "anchors", seed, online_rmse.position_m, full_rmse.position_m,
-          pathLength(seq), online_rmse.rotation_deg, full_rmse.rotation_deg);
+          m.name, seed, online_rmse.position_m, full_rmse.position_m, pathLength(seq),
+          online_rmse.rotation_deg, full_rmse.rotation_deg);
       EXPECT_LT(full_rmse.position_m, 0.005 * pathLength(seq));
       online_sum += online_rmse.position_m;
       full_sum += full_rmse.position_m;
       rot_online_sum += online_rmse.rotation_deg;
       rot_full_sum += full_rmse.rotation_deg;
     }
-    EXPECT_LT(full_sum, 1.1 * online_sum);
+    EXPECT_LT(full_sum, m.max_ratio * online_sum);
     EXPECT_LE(rot_full_sum, 1.1 * rot_online_sum + 0.02 * seeds.size());
   }
 }
