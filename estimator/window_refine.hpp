@@ -25,7 +25,8 @@ void labelGroundLandmarks(std::unordered_map<TrackId, Landmark>& landmarks,
 /// Re-optimises `keyframes` (time order, their current poses as the initial values) with every
 /// factor the run gathered. A track's sightings become landmarks spanning at most
 /// options.refine_max_span_frames frames each (tracks creep: with anchor factors a long span ties
-/// far keyframes with a biased ray; bearing steps model the creep and keep one per track),
+/// far keyframes with a biased ray; bearing steps, options.refine_bearing_steps whatever the
+/// online window used, model the creep and keep one per track),
 /// initialised by triangulation at the current poses (else from `points_W`, the last
 /// window estimate). `segment_gauges` are the gauges each segment started with: the first
 /// keyframe's holds the run's gauge; the first keyframe of each later segment keeps its pose with
