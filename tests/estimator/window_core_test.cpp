@@ -801,8 +801,8 @@ TEST(WindowCore, FullRefinementMatchesTheOnlineWindow) {
   //     0.0060 0.0239 m (sums 0.087 and 0.083);
   //   steps/steps: online 0.0079 0.0064 0.0369 0.0086 0.0089 m, batch 0.0079 0.0070 0.0157
   //     0.0128 0.0098 m (sums 0.069 and 0.053);
-  //   steps/anchors (the defaults: anchor factors keep KITTI 07's scale, and do better on the
-  //     simulated runs, whose tracks do not creep as a pure random walk): batch 0.0182 0.0144
+  //   steps/anchors (the defaults: anchor factors lose less of KITTI 07's scale, and do better on
+  //     the simulated runs, whose tracks do not creep as a pure random walk): batch 0.0182 0.0144
   //     0.0262 0.0079 0.0117 m (sum 0.078, 1.14x the online window's): bound 1.2x.
   // Fails with steps if the batch cuts tracks after 40 frames (sum 0.102 m), and with the ground
   // beams' raw ranges (window.lidar_ground_beams=raw, biased long) even with anchor factors:

@@ -204,7 +204,7 @@ TEST(LidarSigma, AGroundBeamsPlaneIsKnownToItsRangeNoiseTimesTheGrazingSine) {
   range.planar = true;
   EXPECT_DOUBLE_EQ(lidarSigma(range, m), 0.03);
 
-  const double sin8 = std::sin(8.0 * 3.14159265358979323846 / 180.0);
+  const double sin8 = std::sin(8.0 * M_PI / 180.0);
   LidarAssociation ground;
   ground.ground_up_L = Vec3::UnitZ();
   ground.range_m = -0.75;  // the plane z = -0.75 in L
