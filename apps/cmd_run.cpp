@@ -1,13 +1,16 @@
 // `ovo run`: runs an estimator over a dataset and writes trajectory.txt, keyframes.txt,
-// metrics.json and report.html into --out, all through a temporary folder: a failed run leaves
-// nothing half-written. --realtime replays the dataset at sensor rate through the threaded
-// online pipeline (frames dropped when behind, latency measured); --viewer shows the live window.
+// metrics.json and report.html into --out, all through a staging folder (io::StagedFolder): a
+// failed run leaves nothing half-written, and --out replaces only an earlier run's output.
+// --realtime replays the dataset at sensor rate through the threaded online pipeline (frames
+// dropped when behind, latency measured); --viewer shows the live window.
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <optional>
+#include <set>
 
 #include "apps/command.hpp"
 #include "apps/offline_runner.hpp"
@@ -18,6 +21,7 @@
 #include "apps/viewer.hpp"
 #include "common/error.hpp"
 #include "io/dataset.hpp"
+#include "io/staged_folder.hpp"
 #include "io/trajectory_io.hpp"
 
 namespace ovo::app {
@@ -39,6 +43,11 @@ struct RunArgs {
   bool viewer = false;
   std::string viewer_snapshot;
 };
+
+// What `ovo run --out` writes: an existing folder holding only these is an earlier run's output
+// and may be replaced; anything else there is refused.
+const std::set<std::string> kRunOutputNames = {"trajectory.txt", "keyframes.txt", "gyro_bias.csv",
+                                               "metrics.json",   "config.yaml",   "report.html"};
 
 // The scan nearest in time to t_ns (null when there is none).
 const LidarScan* nearestScan(const std::vector<LidarScan>& scans, Timestamp t_ns) {
@@ -74,13 +83,17 @@ int runRun(const RunArgs& args) {
   if (!args.gt.empty()) groundtruth = io::readGroundtruthFor(data, args.gt);
 
   estimator::SensorSetup setup = sensorSetupFrom(data);
+  std::vector<std::string> setup_notes;
   // An estimator that uses the LiDAR may take the camera height from it when the rig gives none
   // (vo, the plain camera chain, stays without).
-  std::vector<std::string> setup_notes;
   if (estimator::estimatorUsesLidar(args.estimator, config))
     if (auto note = cameraHeightFromScans(data, &setup)) setup_notes.push_back(*note);
   auto est = estimator::makeEstimator(args.estimator, setup, config);
   config.checkAllUsed();  // unknown keys are errors, before any work is done
+  // The output folder is checked (and its staging folder made) before any work is done too.
+  std::optional<io::StagedFolder> out;
+  if (!args.out.empty())
+    out.emplace(args.out, "--out", io::StagedFolder::Replace::kIfOwnOutput, kRunOutputNames);
   spdlog::info("ovo run: {} on {} ({} frames, {} gyro samples, {} scans, camera {})", est->name(),
                args.dataset, data.images.size(), data.imu.size(), data.scans.size(),
                camera::modelName(setup.camera));
@@ -172,11 +185,8 @@ int runRun(const RunArgs& args) {
     metrics["timing"]["replay_lag_ms_max"] = replay_lag_ms_max;
   }
 
-  if (!args.out.empty()) {
-    const std::filesystem::path out = args.out;
-    const std::filesystem::path tmp = out.string() + ".tmp-ovo";
-    std::filesystem::remove_all(tmp);
-    std::filesystem::create_directories(tmp);
+  if (out) {
+    const std::filesystem::path& tmp = out->staging();
     io::writeTum(tmp / "trajectory.txt", trajectory);
     io::writeTum(tmp / "keyframes.txt", est->keyframes());
     const auto bias_history = est->biasHistory();
@@ -199,10 +209,8 @@ int runRun(const RunArgs& args) {
     report.metrics = metrics;
     report.config_yaml = config.dump();
     writeReport(tmp / "report.html", report);
-    std::filesystem::remove_all(out);
-    if (out.has_parent_path()) std::filesystem::create_directories(out.parent_path());
-    std::filesystem::rename(tmp, out);
-    spdlog::info("wrote {}", out.string());
+    out->commit();
+    spdlog::info("wrote {}", out->target().string());
   }
   if (!args.quiet) std::cout << metrics.dump(2) << std::endl;
   return 0;
@@ -217,7 +225,8 @@ CommandRunner setupRun(CLI::App& sub) {
       ->check(CLI::IsMember({"window", "kf", "vo"}));
   sub.add_option(
       "--out", args->out,
-      "Output folder (trajectory.txt, keyframes.txt, gyro_bias.csv, metrics.json, report.html)");
+      "Output folder (trajectory.txt, keyframes.txt, gyro_bias.csv, metrics.json, config.yaml, "
+      "report.html): new, empty, or an earlier run's output, which it replaces");
   sub.add_option(
       "--gt", args->gt,
       "Ground truth trajectory (TUM, KITTI with or without time, EuRoC csv); on a KITTI folder "

@@ -1,7 +1,6 @@
 #include "io/dataset_writer.hpp"
 
 #include <fmt/format.h>
-#include <unistd.h>
 
 #include <algorithm>
 #include <fstream>
@@ -46,31 +45,13 @@ class TextFile {
 
 }  // namespace
 
-DatasetWriter::DatasetWriter(fs::path out, bool overwrite)
-    : out_(std::move(out)), overwrite_(overwrite) {
-  if (out_.empty()) fail("dataset output folder: empty path");
-  out_ = fs::absolute(out_).lexically_normal();
-  if (out_.filename().empty()) out_ = out_.parent_path();
+DatasetWriter::DatasetWriter(const fs::path& out, bool overwrite)
+    : folder_(out, "--out",
+              overwrite ? StagedFolder::Replace::kAlways : StagedFolder::Replace::kIfEmpty),
+      staging_(folder_.staging()) {
   std::error_code ec;
-  if (fs::exists(out_) && !overwrite_) {
-    if (!fs::is_directory(out_) || !fs::is_empty(out_))
-      fail(
-          "output '{}' already exists and is not an empty folder (remove it, choose another, or "
-          "overwrite)",
-          out_.string());
-  }
-  staging_ =
-      out_.parent_path() / fmt::format(".{}.partial-{}", out_.filename().string(), ::getpid());
-  fs::remove_all(staging_, ec);
   fs::create_directories(staging_ / "cam0" / "data", ec);
-  if (ec) fail("cannot create '{}': {}", staging_.string(), ec.message());
-}
-
-DatasetWriter::~DatasetWriter() {
-  if (!committed_) {
-    std::error_code ec;
-    fs::remove_all(staging_, ec);
-  }
+  if (ec) fail("cannot create '{}': {}", (staging_ / "cam0" / "data").string(), ec.message());
 }
 
 void DatasetWriter::writeImage(Timestamp t_ns, const cv::Mat& grey8) {
@@ -162,22 +143,7 @@ void DatasetWriter::commit() {
     for (Timestamp t : image_stamps_) f.print("{},{}.png\n", t, t);
     f.close();
   }
-  std::error_code ec;
-  if (fs::exists(out_)) {
-    if (overwrite_) {
-      fs::remove_all(out_, ec);
-    } else if (fs::is_directory(out_) && fs::is_empty(out_)) {
-      fs::remove(out_, ec);
-    } else {
-      fail("output '{}' appeared while writing; the dataset is left in '{}'", out_.string(),
-           staging_.string());
-    }
-    if (ec) fail("cannot replace '{}': {}", out_.string(), ec.message());
-  }
-  fs::create_directories(out_.parent_path(), ec);
-  fs::rename(staging_, out_, ec);
-  if (ec) fail("cannot move '{}' to '{}': {}", staging_.string(), out_.string(), ec.message());
-  committed_ = true;
+  folder_.commit();
 }
 
 }  // namespace ovo::io

@@ -13,16 +13,16 @@
 #include "camera/camera.hpp"
 #include "common/types.hpp"
 #include "io/dataset.hpp"
+#include "io/staged_folder.hpp"
 
 namespace ovo::io {
 
 class DatasetWriter {
  public:
-  /// Prepares a staging folder for `out`. Throws ovo::Error when `out` exists and is not empty
-  /// (unless overwrite, which replaces it at commit()), or when the folder cannot be created.
-  explicit DatasetWriter(std::filesystem::path out, bool overwrite = false);
-  /// Removes the staging folder unless commit() succeeded.
-  ~DatasetWriter();
+  /// Prepares a staging folder for `out` (io::StagedFolder). Throws ovo::Error when `out` exists
+  /// and is not an empty folder (unless overwrite, which replaces a folder at commit()), or when
+  /// the folder cannot be created. The staging folder goes unless commit() succeeds.
+  explicit DatasetWriter(const std::filesystem::path& out, bool overwrite = false);
   DatasetWriter(const DatasetWriter&) = delete;
   DatasetWriter& operator=(const DatasetWriter&) = delete;
 
@@ -49,10 +49,8 @@ class DatasetWriter {
   void commit();
 
  private:
-  std::filesystem::path out_;
-  std::filesystem::path staging_;
-  bool overwrite_ = false;
-  bool committed_ = false;
+  StagedFolder folder_;
+  std::filesystem::path staging_;  // folder_.staging()
   std::mutex mutex_;
   std::vector<Timestamp> image_stamps_;
 };
