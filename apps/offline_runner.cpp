@@ -43,7 +43,7 @@ void runInSequence(const io::Dataset& data, estimator::Estimator& est, const Pro
   for (int i = 0; i < total; ++i) {
     const auto& entry = data.images[i];
     estimator::feedUntilImage(entry.t_ns, data.imu, next_imu, data.scans, next_scan, est);
-    const cv::Mat grey = io::loadImageGrey(entry);  // a corrupt image is an error naming the file
+    const cv::Mat grey = io::loadDatasetImage(data, i);  // a bad image is an error naming the file
     keepFrame(result, est.addImage(entry.t_ns, grey), grey, on_frame);
     if (progress) progress(i + 1, total);
   }
@@ -120,7 +120,7 @@ void runPipelined(const io::Dataset& data, estimator::Estimator& est, const Prog
       FrontendStage stage{est};
       for (int i = 0; i < total; ++i) {
         const auto& entry = data.images[i];
-        cv::Mat grey = io::loadImageGrey(entry);  // a corrupt image is an error naming the file
+        cv::Mat grey = io::loadDatasetImage(data, i);  // a bad image is an error naming the file
         estimator::feedUntilImage(entry.t_ns, data.imu, frontend_imu, data.scans, no_scan, stage);
         // track(i) after update(i - 1 - lead): the frontend runs up to `lead` frames ahead.
         if (!queue.waitForUpdates(i - estimator::kFrontendLeadFrames)) return;

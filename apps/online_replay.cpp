@@ -32,7 +32,7 @@ RealtimeRunResult runRealtime(const io::Dataset& data, estimator::Estimator& est
   if (!data.scans.empty()) t0 = std::min(t0, data.scans.front().t_ns);
 
   cv::Mat prefetched;  // the next image, decoded ahead of its time
-  if (n_images) prefetched = io::loadImageGrey(data.images.front());
+  if (n_images) prefetched = io::loadDatasetImage(data, 0);
   const auto start = Clock::now();
   pipeline.start();
   auto sleepUntilSensorTime = [&](Timestamp t_ns) {
@@ -64,7 +64,7 @@ RealtimeRunResult runRealtime(const io::Dataset& data, estimator::Estimator& est
       pipeline.addImage(t_img, prefetched);
       ++next_image;
       if (progress) progress(static_cast<int>(next_image), static_cast<int>(n_images));
-      prefetched = next_image < n_images ? io::loadImageGrey(data.images[next_image]) : cv::Mat();
+      prefetched = next_image < n_images ? io::loadDatasetImage(data, next_image) : cv::Mat();
     }
   }
   pipeline.stop();

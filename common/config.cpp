@@ -65,6 +65,9 @@ void collectLeaves(const YAML::Node& node, const std::string& prefix, std::vecto
 
 std::string where(const Config::Impl& impl, const std::string& key, const YAML::Node& node) {
   if (impl.overridden.count(key)) return "--set " + key;
+  // "--set a.b.c=1" where a.b is a value: the section a.b was made by that --set.
+  const auto below = impl.overridden.lower_bound(key + ".");
+  if (below != impl.overridden.end() && below->starts_with(key + ".")) return "--set " + *below;
   const auto mark = node.Mark();
   if (mark.line >= 0) return impl.source + ":" + std::to_string(mark.line + 1);
   return impl.source;

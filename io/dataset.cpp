@@ -66,6 +66,10 @@ std::vector<ImageEntry> readImageList(const fs::path& cam_dir) {
   return images;
 }
 
+// Far beyond any gyro's full scale (MEMS: 35 rad/s, 2000 deg/s); larger readings are corrupt and
+// would overflow the rotation integration.
+constexpr double kMaxGyroRadps = 1000.0;
+
 std::vector<ImuSample> readImu(const fs::path& csv) {
   TextReader in(csv, "IMU samples: t[ns], w_x, w_y, w_z [rad/s], a_x, a_y, a_z [m/s^2]");
   std::vector<ImuSample> imu;
@@ -79,6 +83,10 @@ std::vector<ImuSample> readImu(const fs::path& csv) {
     checkIncreasing(in, imu.empty() ? 0 : imu.back().t_ns, s.t_ns, imu.empty());
     s.gyro_radps =
         Vec3(in.number(tok[1], "w_x"), in.number(tok[2], "w_y"), in.number(tok[3], "w_z"));
+    for (int k = 0; k < 3; ++k)
+      if (std::abs(s.gyro_radps[k]) > kMaxGyroRadps)
+        in.fail("w_{} = {} rad/s is no gyro reading (expected at most {} rad/s in magnitude)",
+                "xyz"[k], s.gyro_radps[k], kMaxGyroRadps);
     s.accel_mps2 =
         Vec3(in.number(tok[4], "a_x"), in.number(tok[5], "a_y"), in.number(tok[6], "a_z"));
     imu.push_back(s);
@@ -157,8 +165,10 @@ Dataset loadOvo(const fs::path& root, const fs::path& base) {
   std::optional<SE3> T_B_C_sensor;
   if (fs::exists(ocam)) {
     ds.camera = camera::loadCamera(ocam);
+    ds.camera_file = ocam;
   } else if (fs::exists(sensor)) {
     ds.camera = camera::loadCamera(sensor);
+    ds.camera_file = sensor;
     T_B_C_sensor = camera::readSensorYamlExtrinsics(sensor);
   } else {
     fail("{}: no camera calibration (expected calib_results.txt or sensor.yaml there)",
@@ -276,6 +286,7 @@ Dataset loadKitti(const fs::path& root) {
   const cv::Mat first = loadImageGrey(ds.images.front());
   ds.camera =
       camera::PinholeRadtanCamera(P0(0, 0), P0(1, 1), P0(0, 2), P0(1, 2), first.cols, first.rows);
+  ds.camera_file = root / "calib.txt";  // its image size is the first image's
   // The KITTI rig: body B x forward, y left, z up at the camera centre, camera pitch 0 (x_C = -y_B,
   // y_C = -z_B, z_C = x_B), 1.65 m above the road. Estimators take "up" from T_B_C.
   ds.rig.T_B_C = kittiBodyFromCamera();
@@ -360,6 +371,18 @@ cv::Mat loadImageGrey(const ImageEntry& entry) {
   if (image.empty())
     fail("{}: cannot decode the image (expected an 8-bit PNG/JPEG readable by OpenCV)",
          entry.path.string());
+  return image;
+}
+
+cv::Mat loadDatasetImage(const Dataset& ds, std::size_t index) {
+  const ImageEntry& entry = ds.images.at(index);
+  cv::Mat image = loadImageGrey(entry);
+  if (ds.camera) {
+    const int w = camera::width(*ds.camera), h = camera::height(*ds.camera);
+    if (image.cols != w || image.rows != h)
+      fail("{}: the image is {}x{}, but the camera calibration ({}) is for {}x{} images",
+           entry.path.string(), image.cols, image.rows, ds.camera_file.string(), w, h);
+  }
   return image;
 }
 

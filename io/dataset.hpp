@@ -43,6 +43,7 @@ struct Dataset {
   std::string kind;  // "ovo" (EuRoC/ASL layout) or "kitti"
   std::vector<ImageEntry> images;
   std::optional<camera::Camera> camera;
+  std::filesystem::path camera_file;  // where the calibration came from (messages)
   RigInfo rig;
   std::vector<ImuSample> imu;
   std::vector<LidarScan> scans;
@@ -72,6 +73,9 @@ SE3 kittiBodyFromCamera();
 /// The image as 8-bit grey (colour is converted). Throws ovo::Error naming the file when it is
 /// missing or does not decode.
 cv::Mat loadImageGrey(const ImageEntry& entry);
+/// Image `index` of the dataset, as loadImageGrey, checked against the calibration's image size
+/// (throws ovo::Error naming the image and the calibration file when they differ).
+cv::Mat loadDatasetImage(const Dataset& ds, std::size_t index);
 
 /// Reads rig.yaml (unknown keys, bad values and non-rigid transforms are errors naming the key).
 RigInfo readRigYaml(const std::filesystem::path& file);

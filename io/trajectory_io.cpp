@@ -44,8 +44,19 @@ void checkNotEmpty(const TextReader& in, const Trajectory& trajectory, std::stri
   if (trajectory.empty()) ovo::fail("{}: no poses found (expected {})", in.fileName(), what);
 }
 
+// No robot is farther than this from its world origin (the Moon is 3.8e8 m away); larger
+// coordinates are corrupt and would overflow the metrics' sums of squares.
+constexpr double kMaxPositionM = 1e9;
+
+void checkPosition(const TextReader& in, const Vec3& p) {
+  if (p.cwiseAbs().maxCoeff() > kMaxPositionM)
+    in.fail("position ({}, {}, {}) m is beyond any trajectory (expected coordinates within {:g} m)",
+            p.x(), p.y(), p.z(), kMaxPositionM);
+}
+
 SE3 poseFromQuaternion(const TextReader& in, const Vec3& p, double qw, double qx, double qy,
                        double qz) {
+  checkPosition(in, p);
   Quat q(qw, qx, qy, qz);
   const double norm = q.norm();
   if (!(norm > 1e-6)) in.fail("the quaternion has zero length");
@@ -99,6 +110,7 @@ Trajectory readKitti(const std::filesystem::path& file, bool* has_time) {
     for (int r = 0; r < 3; ++r)
       for (int c = 0; c < 4; ++c)
         M(r, c) = in.number(tok[first + 4 * r + c], fmt::format("element ({}, {})", r, c));
+    checkPosition(in, M.block<3, 1>(0, 3));
     pose.T_W_B.matrix() = M;
     checkOrder(in, trajectory, pose.t_ns);
     trajectory.push_back(pose);

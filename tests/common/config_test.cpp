@@ -56,6 +56,20 @@ TEST(Config, OverridesWinAndUnknownOverrideIsCaught) {
   EXPECT_THROW(c.applyOverride("novalue"), Error);
 }
 
+// "--set a.n.x=5" where a.n is a value turns a.n into a section: the error names that --set, not
+// the defaults (which hold no a.n at all).
+TEST(Config, OverrideBelowAValueNamesTheOverride) {
+  Config c;
+  c.applyOverride("a.n.x=5");
+  EXPECT_CONTAINS(test::errorOf([&] { (void)c.get<int>("a.n", 3); }),
+                  "--set a.n.x: key 'a.n': expected an integer");
+  // A key that merely shares the prefix is not the one that made the section.
+  Config d;
+  d.applyOverride("a.nn=5");
+  d.applyOverride("a.n.x=5");
+  EXPECT_CONTAINS(test::errorOf([&] { (void)d.get<int>("a.n", 3); }), "--set a.n.x:");
+}
+
 TEST(Config, RangeAndChoiceChecks) {
   const Config c = Config::fromString("rate: -3\nmode: turbo\n", "cfg.yaml");
   EXPECT_THROW(c.getInRange("rate", 1.0, 0.0, 100.0), Error);

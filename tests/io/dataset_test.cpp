@@ -248,6 +248,9 @@ TEST(Dataset, BadInputGivesAnErrorNamingFileAndLine) {
        "imu0/data.csv:1: expected a finite number for w_y"},
       {"imu_order", "imu0/data.csv", "2,0,0,0,0,0,0\n1,0,0,0,0,0,0\n",
        "imu0/data.csv:2: time stamps must increase"},
+      // Finite but no gyro's: such a rate overflowed the rotation integration (a Ceres abort).
+      {"imu_huge_rate", "imu0/data.csv", "1,0,0,0,0,0,9.8\n2,0,0,-1e200,0,0,9.8\n",
+       "imu0/data.csv:2: w_z = -1e+200 rad/s is no gyro reading"},
       {"lidar_columns", "lidar0/data.csv",
        "1000000000,-1,0.5,0.1,30,1,2\n1100000000,-1,0.5,0.1,30,1\n",
        "lidar0/data.csv:2: expected 7 columns like the first scan"},
@@ -255,6 +258,8 @@ TEST(Dataset, BadInputGivesAnErrorNamingFileAndLine) {
        "lidar0/data.csv:1: expected a finite number for angle_min"},
       {"lidar_ranges", "lidar0/data.csv", "1000000000,-1,0.5,30,0.1,1,2\n",
        "lidar0/data.csv:1: expected 0 <= range_min < range_max"},
+      {"gt_far", "groundtruth.txt", "1.0 0 0 0 0 0 0 1\n1.1 1e200 0 0 0 0 0 1\n",
+       "groundtruth.txt:2: position (1e+200, 0, 0) m is beyond any trajectory"},
       {"gt_order", "groundtruth.txt", "2.0 0 0 0 0 0 0 1\n1.0 0 0 0 0 0 0 1\n",
        "groundtruth.txt:2: time stamps must not decrease"},
       {"bias_columns", "sim/truth_bias.csv", "1000000000,0.1,0.2\n",
@@ -292,6 +297,31 @@ TEST(Dataset, ImageThatDoesNotDecodeNamesTheFile) {
   EXPECT_CONTAINS(err, ds.images[1].path.string() + ": cannot decode the image");
   fs::remove(ds.images[2].path);
   EXPECT_CONTAINS(errorOf([&] { loadImageGrey(ds.images[2]); }), "image file not found");
+}
+
+TEST(Dataset, ImageOfAnotherSizeThanTheCalibrationNamesBoth) {
+  const fs::path root = writeMiniDataset(test::tempDir() / "ds");
+  const Dataset ds = loadDataset(root);
+  EXPECT_EQ(loadDatasetImage(ds, 0).cols, 64);
+  cv::imwrite(ds.images[1].path.string(), cv::Mat(24, 32, CV_8UC1, cv::Scalar(9)));
+  const std::string err = errorOf([&] { loadDatasetImage(ds, 1); });
+  EXPECT_CONTAINS(err, ds.images[1].path.string() + ": the image is 32x24");
+  EXPECT_CONTAINS(err, (root / "cam0" / "sensor.yaml").string() + ") is for 64x48 images");
+}
+
+TEST(Dataset, ByteOrderMarkBeforeTheFirstLineIsIgnored) {
+  const fs::path root = writeMiniDataset(test::tempDir() / "ds");
+  test::writeTextFile(root / "imu0" / "data.csv",
+                      "\xEF\xBB\xBF#timestamp [ns],w_x,w_y,w_z,a_x,a_y,a_z\n"
+                      "1000000000,0.1,0.2,0.3,0,0,9.81\n");
+  test::writeTextFile(root / "groundtruth.txt",
+                      "\xEF\xBB\xBF"
+                      "1.0 0.5 0 0 0 0 0 1\n");
+  const Dataset ds = loadDataset(root);
+  ASSERT_EQ(ds.imu.size(), 1u);
+  EXPECT_DOUBLE_EQ(ds.imu[0].gyro_radps.z(), 0.3);
+  ASSERT_EQ(ds.groundtruth.size(), 1u);
+  EXPECT_DOUBLE_EQ(ds.groundtruth[0].T_W_B.translation().x(), 0.5);
 }
 
 TEST(Dataset, NotADatasetFolder) {

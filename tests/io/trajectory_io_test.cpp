@@ -82,10 +82,10 @@ TEST(TrajectoryIo, WriteReplacesAtomicallyAndFailsCleanly) {
 TEST(TrajectoryIo, ExactTimeParsing) {
   const fs::path file = test::tempDir() / "t.txt";
   test::writeTextFile(file,
-            "# comment\n"
-            "1305031102.160407 0 0 0 0 0 0 1\n"
-            "1.403715529112143517e+09 0 0 0 0 0 0 1\n"
-            "1403715529.2121429 0 0 0 0 0 0 2\n");
+                      "# comment\n"
+                      "1305031102.160407 0 0 0 0 0 0 1\n"
+                      "1.403715529112143517e+09 0 0 0 0 0 0 1\n"
+                      "1403715529.2121429 0 0 0 0 0 0 2\n");
   const Trajectory t = readTum(file);
   ASSERT_EQ(t.size(), 3u);
   EXPECT_EQ(t[0].t_ns, 1305031102160407000LL);
@@ -146,6 +146,10 @@ TEST(TrajectoryIo, BadInputNamesFileLineAndWhatWasExpected) {
       {"kitti_mixed", TrajectoryFormat::kKitti,
        "1 0 0 0 0 1 0 0 0 0 1 0\n0 1 0 0 0 0 1 0 0 0 0 1 0\n", "like the first row", 2},
       {"kitti_nan", TrajectoryFormat::kKitti, "1 0 0 0 0 1 0 0 0 0 1 nan\n", "element (2, 3)", 1},
+      {"kitti_far", TrajectoryFormat::kKitti, "1 0 0 0 0 1 0 -2e9 0 0 1 0\n",
+       "beyond any trajectory", 1},
+      {"tum_far", TrajectoryFormat::kTum, "0 0 0 0 0 0 0 1\n1 0 0 1e300 0 0 0 1\n",
+       "expected coordinates within 1e+09 m", 2},
       {"euroc_columns", TrajectoryFormat::kEurocCsv,
        "#t,px,py,pz,qw,qx,qy,qz\n1,0,0,0,1,0,0,0\n2,0,0,0,1,0,0\n", "at least 8 columns", 3},
       {"euroc_mixed", TrajectoryFormat::kEurocCsv, "1,0,0,0,1,0,0,0,5\n2,0,0,0,1,0,0,0\n",
