@@ -83,7 +83,7 @@ int runRun(const RunArgs& args) {
   if (!args.gt.empty()) groundtruth = io::readGroundtruthFor(data, args.gt);
 
   estimator::SensorSetup setup = sensorSetupFrom(data);
-  std::vector<std::string> setup_notes;
+  std::vector<std::string> setup_notes = estimator::applyNoiseFloors(setup);
   // An estimator that uses the LiDAR may take the camera height from it when the rig gives none
   // (vo, the plain camera chain, stays without).
   if (estimator::estimatorUsesLidar(args.estimator, config))

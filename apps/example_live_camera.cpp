@@ -170,6 +170,7 @@ int run(const Args& args) {
   const double fps = args.fps > 0 ? args.fps : capture.get(cv::CAP_PROP_FPS);
   if (fps > 0) setup.camera_rate_hz = fps;
   setup.has_gyro = !args.no_gyro;
+  for (const std::string& note : estimator::applyNoiseFloors(setup)) spdlog::info("{}", note);
 
   Config config;
   if (!args.config.empty()) config = Config::load(args.config);

@@ -13,6 +13,21 @@ void failFrontendFrame(const char* estimator, bool non_null) {
   fail("{}: update() got a frame tracked by another estimator", estimator);
 }
 
+std::vector<std::string> applyNoiseFloors(SensorSetup& setup) {
+  std::vector<std::string> notes;
+  const auto raise = [&](double& value, double floor, const char* what, const char* unit) {
+    if (value >= floor) return;
+    notes.push_back(fmt::format("rig {} {} {} is below what the estimator can weigh: {} {} used",
+                                what, value, unit, floor, unit));
+    value = floor;
+  };
+  raise(setup.pixel_sigma, 0.05, "camera.pixel_sigma", "px");
+  raise(setup.gyro_noise_density, 1e-6, "gyro.noise_density", "rad/s/sqrt(Hz)");
+  raise(setup.gyro_bias_random_walk, 1e-7, "gyro.bias_random_walk", "rad/s^2/sqrt(Hz)");
+  raise(setup.lidar_range_sigma_m, 1e-3, "lidar.range_sigma_m", "m");
+  return notes;
+}
+
 std::unique_ptr<Estimator> makeEstimator(const std::string& name, const SensorSetup& setup,
                                          const Config& config) {
   if (name == "vo") return makeVoEstimator(setup, config);

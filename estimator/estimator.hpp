@@ -183,6 +183,12 @@ std::unique_ptr<Frame> frontendFrameAs(std::unique_ptr<FrontendFrame> frame,
   return std::unique_ptr<Frame>(typed);
 }
 
+/// Raises the rig's noise figures to the floors the estimators can weigh (pixel 0.05 px, gyro
+/// noise 1e-6 rad/s/sqrt(Hz), bias walk 1e-7 rad/s^2/sqrt(Hz), LiDAR range 1 mm): a figure of 0,
+/// as a noise-free simulation writes, would give its factors infinite weight (NaN in the solver).
+/// Returns one note per figure raised.
+std::vector<std::string> applyNoiseFloors(SensorSetup& setup);
+
 /// Creates "vo", "kf" or "window" from the configuration (throws ovo::Error for unknown names).
 std::unique_ptr<Estimator> makeEstimator(const std::string& name, const SensorSetup& setup,
                                          const Config& config);

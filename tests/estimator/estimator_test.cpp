@@ -27,5 +27,29 @@ TEST(EstimatorUsesLidar, FollowsEachEstimatorsOwnSwitch) {
   EXPECT_TRUE(estimatorUsesLidar("kf", Config::fromString("window: {use_lidar: false}")));
 }
 
+// A noise-free simulation writes 0 for its noise figures; the estimators' factors would weigh
+// them infinitely (Ceres: NaN residuals, "Terminating"). They are raised to floors, each with a
+// note; real figures pass unchanged.
+TEST(ApplyNoiseFloors, RaisesZerosAndKeepsRealFigures) {
+  SensorSetup rig{camera::PinholeRadtanCamera(300, 300, 320, 240, 640, 480)};
+  const SensorSetup real = rig;
+  EXPECT_TRUE(applyNoiseFloors(rig).empty());
+  EXPECT_EQ(rig.pixel_sigma, real.pixel_sigma);
+  EXPECT_EQ(rig.gyro_noise_density, real.gyro_noise_density);
+  EXPECT_EQ(rig.gyro_bias_random_walk, real.gyro_bias_random_walk);
+  EXPECT_EQ(rig.lidar_range_sigma_m, real.lidar_range_sigma_m);
+
+  rig.pixel_sigma = rig.gyro_noise_density = rig.gyro_bias_random_walk = 0.0;
+  rig.lidar_range_sigma_m = 0.0;
+  const auto notes = applyNoiseFloors(rig);
+  ASSERT_EQ(notes.size(), 4u);
+  EXPECT_NE(notes[1].find("gyro.noise_density 0 rad/s/sqrt(Hz)"), std::string::npos) << notes[1];
+  EXPECT_DOUBLE_EQ(rig.pixel_sigma, 0.05);
+  EXPECT_DOUBLE_EQ(rig.gyro_noise_density, 1e-6);
+  EXPECT_DOUBLE_EQ(rig.gyro_bias_random_walk, 1e-7);
+  EXPECT_DOUBLE_EQ(rig.lidar_range_sigma_m, 1e-3);
+  EXPECT_TRUE(applyNoiseFloors(rig).empty());  // at the floor: nothing more to raise
+}
+
 }  // namespace
 }  // namespace ovo::estimator
