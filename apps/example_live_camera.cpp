@@ -157,15 +157,20 @@ int run(const Args& args) {
     fail("cannot open the video file '{}' (missing or not a format OpenCV can read)", args.camera);
 
   estimator::SensorSetup setup{.camera = camera::loadCamera(args.calib)};
+  const auto T_B_C_calib = camera::readSensorYamlExtrinsics(args.calib);
   if (!args.rig.empty()) {
     const io::RigInfo rig = io::readRigYaml(args.rig);
-    setup.T_B_C = rig.T_B_C, setup.T_B_L = rig.T_B_L;
+    // As for a dataset: without T_B_C in the rig, the calibration's T_BS.
+    if (!rig.has_T_B_C && !T_B_C_calib)
+      fail("{}: no T_B_C and no T_BS in --calib {}: expected one of them", args.rig, args.calib);
+    setup.T_B_C = rig.has_T_B_C ? rig.T_B_C : *T_B_C_calib;
+    setup.T_B_L = rig.T_B_L;
     setup.camera_rate_hz = rig.camera_rate_hz, setup.pixel_sigma = rig.pixel_sigma;
     setup.camera_height_m = rig.camera_height_m;
     setup.gyro_noise_density = rig.gyro_noise_density;
     setup.gyro_bias_random_walk = rig.gyro_bias_random_walk;
-  } else if (const auto T_B_C = camera::readSensorYamlExtrinsics(args.calib)) {
-    setup.T_B_C = *T_B_C;
+  } else if (T_B_C_calib) {
+    setup.T_B_C = *T_B_C_calib;
   }
   const double fps = args.fps > 0 ? args.fps : capture.get(cv::CAP_PROP_FPS);
   if (fps > 0) setup.camera_rate_hz = fps;

@@ -182,6 +182,9 @@ Camera cameraFromYaml(const fs::path& file) {
          where(file, cam["resolution"]));
   if (!(k[0] > 0 && k[1] > 0))
     fail("{}: 'intrinsics' fu and fv must be positive", where(file, cam["intrinsics"]));
+  if (!(k[2] >= 0 && k[2] < width && k[3] >= 0 && k[3] < height))
+    fail("{}: 'intrinsics' principal point ({}, {}) lies outside the {}x{} image",
+         where(file, cam["intrinsics"]), k[2], k[3], width, height);
   std::string distortion = "none";
   if (cam["distortion_model"]) distortion = text(file, cam["distortion_model"], "distortion_model");
   const char* coeff_key =
@@ -278,6 +281,10 @@ OcamCamera readOcamCalib(const fs::path& file, const OcamOptions& options) {
            lines[4].values.size());
   p.height = positiveInt(name, lines[4].line, lines[4].values[0], "image height");
   p.width = positiveInt(name, lines[4].line, lines[4].values[1], "image width");
+  if (!(p.center_row >= 0 && p.center_row < p.height && p.center_col >= 0 &&
+        p.center_col < p.width))
+    failAt(name, lines[2].line, "centre (row {}, column {}) lies outside the {}x{} image",
+           p.center_row, p.center_col, p.width, p.height);
   try {
     return OcamCamera(std::move(p), options);
   } catch (const Error& e) {
@@ -352,6 +359,7 @@ void writeSensorYaml(const fs::path& file, const Camera& cam, const SE3& T_B_C, 
 }
 
 std::optional<SE3> readSensorYamlExtrinsics(const fs::path& file) {
+  if (looksLikeOcam(file)) return std::nullopt;  // OCamCalib files hold no extrinsics
   const YAML::Node doc = loadYaml(file);
   const YAML::Node cam = cameraBlock(file, doc);
   if (const YAML::Node T = cam["T_BS"]) {

@@ -22,7 +22,7 @@ void writeOcamCalib(const std::filesystem::path& file, const OcamCamera& cam);
 void writeSensorYaml(const std::filesystem::path& file, const Camera& cam, const SE3& T_B_C,
                      double rate_hz);
 /// T_B_C (camera -> body) from sensor.yaml's T_BS, or from a Kalibr camchain's cam0 (T_imu_cam, or
-/// the inverse of T_cam_imu); nullopt when the file has none.
+/// the inverse of T_cam_imu); nullopt when the file has none (an OCamCalib file never has).
 std::optional<SE3> readSensorYamlExtrinsics(const std::filesystem::path& file);
 
 }  // namespace ovo::camera

@@ -175,13 +175,25 @@ Dataset loadOvo(const fs::path& root, const fs::path& base) {
          cam_dir.string());
   }
 
+  fs::path rig_file;
   for (const fs::path& p : {root / "rig.yaml", base / "rig.yaml"}) {
     if (fs::exists(p)) {
       ds.rig = readRigYaml(p);
+      rig_file = p;
       break;
     }
   }
-  if (!ds.rig.has_rig_file && T_B_C_sensor) ds.rig.T_B_C = *T_B_C_sensor;
+  if (!ds.rig.has_T_B_C) {
+    // Without T_B_C in a rig file the camera's own T_BS; identity (the camera looking up) would
+    // be no rig at all.
+    if (T_B_C_sensor)
+      ds.rig.T_B_C = *T_B_C_sensor;
+    else if (ds.rig.has_rig_file)
+      fail(
+          "{}: no T_B_C (the camera's pose in the body frame, 4x4 row-major) and no T_BS in a "
+          "cam0/sensor.yaml: expected one of them",
+          rig_file.string());
+  }
 
   if (fs::exists(base / "imu0" / "data.csv")) ds.imu = readImu(base / "imu0" / "data.csv");
   if (fs::exists(base / "lidar0" / "data.csv")) ds.scans = readLidar(base / "lidar0" / "data.csv");
@@ -322,6 +334,7 @@ RigInfo readRigYaml(const fs::path& file) {
   constexpr double kMax = 1e6;
   RigInfo rig;
   rig.has_rig_file = true;
+  rig.has_T_B_C = cfg.has("T_B_C");
   rig.T_B_C =
       rigidFrom(cfg.get<Eigen::Matrix4d>("T_B_C", Eigen::Matrix4d::Identity()), where, "T_B_C");
   rig.T_B_L =

@@ -35,6 +35,7 @@ struct RigInfo {
   double lidar_rate_hz = 10.0;
   double lidar_range_sigma_m = 0.02;
   bool has_rig_file = false;
+  bool has_T_B_C = false;  // the rig file gave T_B_C (without it: the camera's sensor.yaml T_BS)
 };
 
 /// Everything of a sequence except the pixels. Ground truth is T_W_B.

@@ -135,6 +135,8 @@ TEST(CalibIo, BadYamlNamesFileAndKey) {
                       "distortion_coefficients: [1, 2]\n",
                   "distortion_coefficients");
   expectYamlError(head + "intrinsics: [458, 457, .nan, 248]\n", "non-finite");
+  expectYamlError(head + "intrinsics: [458, 457, 367, 480]\n", "lies outside the 752x480 image");
+  expectYamlError(head + "intrinsics: [458, 457, -1, 248]\n", "principal point (-1, 248)");
   expectYamlError("camera_model: omni\n", "camera_model");
   expectYamlError("camera_model: [pinhole\n", ":2:");
   EXPECT_THROW(loadCamera(test::tempDir() / "absent.yaml"), Error);

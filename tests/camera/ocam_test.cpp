@@ -185,6 +185,9 @@ TEST(OcamCalibFile, MalformedFilesNameFileAndLine) {
   expectFileError(replaceLine(goodFile(), 3, "3 3.0e+02 0 1e-3"), 3, "a0 >= 0");
   expectFileError(replaceLine(goodFile(), 7, "2.5 1 2"), 7, "fractional count");
   expectFileError(replaceLine(goodFile(), 11, "213.9"), 11, "centre with one value");
+  // A centre off the image: every ray then misses it (0 keyframes, silently, before).
+  expectFileError(replaceLine(goodFile(), 11, "-50000 90000"), 11, "centre off the image");
+  expectFileError(replaceLine(goodFile(), 11, "213.9 640"), 11, "centre column = width");
   expectFileError(replaceLine(goodFile(), 15, "1 1 1"), 15, "singular affine");
   expectFileError(replaceLine(goodFile(), 19, "480 -640"), 19, "negative width");
   // Truncated after the affine line (line 16): the error points past the last data line.

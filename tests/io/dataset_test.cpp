@@ -213,6 +213,23 @@ TEST(Dataset, WithoutRigFileUsesSensorYamlExtrinsicsAndMeasuredRates) {
   EXPECT_NEAR(ds.rig.lidar_rate_hz, 10.0, 1e-9);
 }
 
+// rig.yaml without T_B_C: the camera's sensor.yaml T_BS; without that either, an error (the
+// identity it used to take has the camera looking up at the sky: 0 keyframes, exit 0).
+TEST(Dataset, RigFileWithoutTBCTakesTheSensorYamlOrIsAnError) {
+  const fs::path root = writeMiniDataset(test::tempDir() / "ds");
+  test::writeTextFile(root / "rig.yaml", "camera: {rate_hz: 20.0, height_m: 1.2}\n");
+  const Dataset ds = loadDataset(root);
+  EXPECT_TRUE(ds.rig.has_rig_file);
+  EXPECT_DOUBLE_EQ(ds.rig.T_B_C.translation().x(), 0.1);  // sensor.yaml's T_BS
+  EXPECT_DOUBLE_EQ(ds.rig.T_B_C.matrix()(1, 0), -1.0);
+  // An OCamCalib camera has no T_BS.
+  OVO_REQUIRE_DATA("romovi-fisheye-calib/calib_results.txt");
+  fs::remove(root / "cam0" / "sensor.yaml");
+  fs::copy_file(test::sharedData("romovi-fisheye-calib/calib_results.txt"),
+                root / "cam0" / "calib_results.txt");
+  EXPECT_CONTAINS(errorOf([&] { loadDataset(root); }), (root / "rig.yaml").string() + ": no T_B_C");
+}
+
 TEST(Dataset, OcamCalibrationInCam0IsUsed) {
   OVO_REQUIRE_DATA("romovi-fisheye-calib/calib_results.txt");
   const fs::path root = writeMiniDataset(test::tempDir() / "ds");
