@@ -3,7 +3,6 @@
 #include <fmt/format.h>
 #include <unistd.h>
 
-#include <algorithm>
 #include <system_error>
 
 #include "common/error.hpp"
@@ -15,11 +14,11 @@ namespace {
 
 /// True when `inner` is `outer` or lies inside it (both absolute and normalised).
 bool isSameOrInside(const fs::path& inner, const fs::path& outer) {
-  auto o = outer.begin();
   auto i = inner.begin();
-  for (; o != outer.end(); ++o, ++i) {
-    if (o->empty()) continue;  // a trailing separator
-    if (i == inner.end() || *i != *o) return false;
+  for (const fs::path& part : outer) {
+    if (part.empty()) break;  // a trailing separator ends the path
+    if (i == inner.end() || *i != part) return false;
+    ++i;
   }
   return true;
 }
