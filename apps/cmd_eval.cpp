@@ -1,7 +1,7 @@
 // `ovo eval`: compares an estimated trajectory with ground truth and prints the metrics as one
 // JSON object (ATE after Umeyama alignment, optional RPE; evo's semantics, see eval/metrics.hpp).
 #include <cmath>
-#include <fstream>
+#include <filesystem>
 #include <iostream>
 #include <nlohmann/json.hpp>
 
@@ -9,6 +9,7 @@
 #include "apps/svg_plot.hpp"
 #include "common/error.hpp"
 #include "eval/metrics.hpp"
+#include "io/text_reader.hpp"
 #include "io/trajectory_io.hpp"
 
 namespace ovo::app {
@@ -37,10 +38,19 @@ void writeComparisonPlot(const EvalArgs& args, const eval::Associated& pairs, bo
   if (!c) fail("--plot: {} matched poses, at least 3 are needed for a plot", ref.size());
   const std::string title = std::filesystem::path(args.est).filename().string() + " vs " +
                             std::filesystem::path(args.gt).filename().string();
-  std::ofstream out(args.plot);
-  if (!out) fail("--plot: cannot write '{}'", args.plot);
-  out << app::svgComparisonDocument(*c, title, by_index ? "pose index" : "time [s]");
-  if (!out) fail("--plot: error while writing '{}'", args.plot);
+  // Through a temporary file beside it: a full disk leaves no truncated plot.
+  try {
+    io::writeFileAtomically(
+        args.plot, app::svgComparisonDocument(*c, title, by_index ? "pose index" : "time [s]"));
+  } catch (const Error& e) {
+    fail("--plot: {}", e.what());
+  }
+}
+
+/// True when a and b name the same file (an input must not be overwritten by the plot).
+bool sameFile(const std::string& a, const std::string& b) {
+  std::error_code ec;
+  return std::filesystem::equivalent(a, b, ec) && !ec;
 }
 
 nlohmann::ordered_json statsJson(const eval::Stats& s, bool full) {
@@ -64,8 +74,10 @@ int runEval(const EvalArgs& args) {
   if (args.rpe_asked && *unit == eval::DeltaUnit::kFrames &&
       args.rpe_delta != std::floor(args.rpe_delta))
     fail("--rpe-delta: a delta in frames must be a whole number, got {}", args.rpe_delta);
-  if (!(args.max_diff_s >= 0.0))
-    fail("--max-diff: expected a time >= 0 s, got {}", args.max_diff_s);
+  if (!(args.max_diff_s >= 0.0 && args.max_diff_s <= 3600.0))
+    fail("--max-diff: expected a time in [0, 3600] s, got {}", args.max_diff_s);
+  if (!args.plot.empty() && (sameFile(args.plot, args.gt) || sameFile(args.plot, args.est)))
+    fail("--plot: '{}' is one of the input trajectories; choose another file", args.plot);
 
   // euroc: the ground truth is EuRoC csv and the estimate TUM, as evo's `euroc` mode.
   const io::TrajectoryFormat gt_format =
@@ -98,7 +110,6 @@ int runEval(const EvalArgs& args) {
   out["align"] = eval::alignModeName(*align);
   out["scale"] = ate->alignment.scale;
   out["ate"] = statsJson(ate->trans_m, true);
-  if (!args.plot.empty()) writeComparisonPlot(args, pairs, by_index);
 
   if (args.rpe_asked) {
     eval::RpeOptions options;
@@ -115,6 +126,8 @@ int runEval(const EvalArgs& args) {
                   {"trans", statsJson(rpe->trans, false)},
                   {"rot_deg", statsJson(rpe->rot, false)}};
   }
+  // The plot last: a failed step before it leaves no file behind.
+  if (!args.plot.empty()) writeComparisonPlot(args, pairs, by_index);
   std::cout << out.dump(2) << std::endl;
   return 0;
 }

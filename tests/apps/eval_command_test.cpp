@@ -118,6 +118,12 @@ TEST(EvalCommand, BadFilesExitNonZeroNamingTheFile) {
                    &out, &err),
             2);
   EXPECT_NE(err.find("--rpe-delta"), std::string::npos) << err;
+  // 1e10 s overflowed into a false "no pose within 10000000000 s".
+  EXPECT_EQ(runOvo("eval --gt " + quoted(dir / "gt.txt") + " --est " + quoted(dir / "gt.txt") +
+                       " --max-diff 1e10",
+                   &out, &err),
+            2);
+  EXPECT_NE(err.find("--max-diff: expected a time in [0, 3600] s"), std::string::npos) << err;
   // A trajectory compared with itself: zero error.
   ASSERT_EQ(runOvo("eval --gt " + quoted(dir / "gt.txt") + " --est " + quoted(dir / "gt.txt") +
                        " --rpe-delta 1 --rpe-unit f",

@@ -45,6 +45,25 @@ TEST(EvalPlot, WritesAStandaloneSvgWithTopViewAndErrors) {
                            dir, &out);
   EXPECT_EQ(bad, 2);
   EXPECT_NE(out.find("/nonexistent-dir/p.svg"), std::string::npos) << out;
+
+  // A step that fails after the alignment (an RPE delta longer than the run) leaves no plot.
+  const std::string kitti = "'" + ovoBinaryPath().string() + "' eval --format kitti --est '" +
+                            sharedData("traj-eval-evo/KITTI_00_ORB.txt").string() + "' ";
+  const fs::path late = dir / "late.svg";
+  EXPECT_EQ(runShell(kitti + "--gt '" + sharedData("traj-eval-evo/KITTI_00_gt.txt").string() +
+                         "' --rpe-delta 1e9 --plot '" + late.string() + "'",
+                     dir, &out),
+            2);
+  EXPECT_FALSE(fs::exists(late)) << out;
+  // The plot may not overwrite an input (it replaced the ground truth with SVG, exit 0).
+  const fs::path gt_copy = dir / "gt.txt";
+  fs::copy_file(sharedData("traj-eval-evo/KITTI_00_gt.txt"), gt_copy);
+  const auto size = fs::file_size(gt_copy);
+  EXPECT_EQ(runShell(kitti + "--gt '" + gt_copy.string() + "' --plot '" + gt_copy.string() + "'",
+                     dir, &out),
+            2);
+  EXPECT_NE(out.find("is one of the input trajectories"), std::string::npos) << out;
+  EXPECT_EQ(fs::file_size(gt_copy), size);
 }
 
 }  // namespace
