@@ -12,6 +12,7 @@
 #include <fmt/format.h>
 #include <poll.h>
 #include <pthread.h>
+#include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
 #include <unistd.h>
 
@@ -273,17 +274,23 @@ int main(int argc, char** argv) {
       ->check(CLI::IsMember({"window", "kf", "vo"}));
   app.add_option("--config", args.config, "Estimator configuration (YAML)");
   app.add_option("--set", args.sets, "Override a configuration key: key.path=value");
-  app.add_option("--fps", args.fps, "Frame rate of a video file (default: from the file)");
+  // Bounded: a rate or fps of 1e-6 slept for days between frames (past Ctrl-C), inf or 1e300
+  // gave every frame one stamp, and a t0 near 2^63 overflowed.
+  app.add_option("--fps", args.fps, "Frame rate of a video file (default: from the file)")
+      ->check(CLI::Range(0.1, 1000.0));
   app.add_option("--rate", args.rate, "Replay speed of a video file")
-      ->check(CLI::PositiveNumber)
+      ->check(CLI::Range(0.01, 1000.0))
       ->capture_default_str();
-  app.add_option("--t0-ns", args.t0_ns, "Time of a video file's first frame [ns]");
+  app.add_option("--t0-ns", args.t0_ns, "Time of a video file's first frame [ns]")
+      ->check(CLI::Range(0LL, 4'000'000'000'000'000'000LL));
   app.add_option("--queue-depth", args.queue_depth, "Frames waiting for the estimator")
       ->check(CLI::Range(1, 1000))
       ->capture_default_str();
   app.add_flag("--no-gyro", args.no_gyro, "Do not read gyro samples from standard input");
   app.add_flag("--viewer", args.viewer, "Show the live viewer window (needs a display)");
   CLI11_PARSE(app, argc, argv);
+  // Standard output carries the TUM pose stream only: messages go to standard error.
+  spdlog::set_default_logger(spdlog::stderr_color_mt("ovo_live_camera"));
   spdlog::set_pattern("[%^%l%$] %v");
   try {
     return run(args);
