@@ -240,16 +240,20 @@ CommandRunner setupRun(CLI::App& sub) {
       "--serial", args->serial,
       "Offline: frontend and estimator in sequence on one thread (the same poses as the "
       "default two-stage pipeline, slower)");
-  sub.add_flag("--realtime", args->realtime,
-               "Replay at sensor rate through the threaded online pipeline (drops frames when "
-               "behind; metrics gain latency_ms_median/_p99 and frames_dropped)")
-      ->excludes(serial);
+  CLI::Option* realtime =
+      sub.add_flag("--realtime", args->realtime,
+                   "Replay at sensor rate through the threaded online pipeline (drops frames "
+                   "when behind; metrics gain latency_ms_median/_p99 and frames_dropped)")
+          ->excludes(serial);
+  // Bounded: 1e-10 slept for ever between frames, 1e-300 overflowed the sleep into none.
   sub.add_option("--rate", args->rate, "Replay speed factor for --realtime (2 = twice as fast)")
-      ->check(CLI::PositiveNumber)
+      ->check(CLI::Range(0.01, 1000.0))
+      ->needs(realtime)
       ->capture_default_str();
   sub.add_option("--queue-depth", args->queue_depth,
                  "Camera frames that may wait for the frontend in --realtime (oldest dropped)")
       ->check(CLI::Range(1, 1000))
+      ->needs(realtime)
       ->capture_default_str();
   sub.add_flag("--viewer", args->viewer,
                "Live window: image with tracks and LiDAR points, top view (needs a display)");

@@ -94,7 +94,8 @@ CommandRunner setupSimulate(CLI::App& sub) {
       ->capture_default_str();
   sub.add_option("--out", args->out, "Dataset folder to create")->required();
   sub.add_option("--seed", args->seed,
-                 "Seed (texture, noise, trajectory jitter); overrides the scenario's");
+                 "Seed (texture, noise, trajectory jitter); overrides the scenario's")
+      ->check(CLI::Range(std::int64_t{0}, std::int64_t{INT64_MAX - 1}));  // 2^63 and up: clamped
   sub.add_option("--frames", args->frames, "Number of camera frames (short sequences)");
   sub.add_option("--duration", args->duration_s, "Length in seconds (ignored with --frames)");
   sub.add_option("--set", args->sets, "Override a scenario key: key.path=value (repeatable)");

@@ -14,6 +14,9 @@
 namespace ovo::app {
 namespace {
 
+// The largest panoramic side (and radius) in pixels: 20000 x 20000 floats are 3.2 GB of maps.
+constexpr int kMaxSidePx = 20000;
+
 struct UndistortArgs {
   std::string calib, image, out;
   double sf = 4.0;  // perspective scale factor: focal length = width / sf (pixels)
@@ -31,7 +34,9 @@ camera::Camera loadForUndistortion(const std::filesystem::path& file) {
 }
 
 int runUndistort(const UndistortArgs& args) {
-  if (!(args.sf > 0.0)) fail("--sf: expected a scale factor > 0, got {}", args.sf);
+  // A perspective view wider than ~179 deg (sf 1e-2) or narrower than a pixel (sf 1e4) is no view.
+  if (!(args.sf >= 1e-2 && args.sf <= 1e4))
+    fail("--sf: expected a scale factor in [0.01, 10000], got {}", args.sf);
   const camera::Camera cam = loadForUndistortion(args.calib);
   if (!std::filesystem::exists(args.image)) fail("{}: image file not found", args.image);
   const cv::Mat input = cv::imread(args.image, cv::IMREAD_UNCHANGED);
@@ -39,10 +44,12 @@ int runUndistort(const UndistortArgs& args) {
 
   camera::RemapTable table;
   if (args.panoramic) {
-    if (!(args.rmin_px >= 0.0 && args.rmax_px > args.rmin_px))
-      fail("--rmin/--rmax: expected 0 <= rmin < rmax, got {} and {}", args.rmin_px, args.rmax_px);
-    if (args.width <= 0 || args.height <= 0)
-      fail("--width/--height: expected a positive size, got {}x{}", args.width, args.height);
+    if (!(args.rmin_px >= 0.0 && args.rmax_px > args.rmin_px && args.rmax_px <= kMaxSidePx))
+      fail("--rmin/--rmax: expected 0 <= rmin < rmax <= {}, got {} and {}", kMaxSidePx,
+           args.rmin_px, args.rmax_px);
+    if (args.width <= 0 || args.height <= 0 || args.width > kMaxSidePx || args.height > kMaxSidePx)
+      fail("--width/--height: expected a size of 1 to {} pixels a side, got {}x{}", kMaxSidePx,
+           args.width, args.height);
     // The unwrapping is centred on the image centre: OCamCalib's (row, col), else the pixel
     // of the optical axis.
     Vec2 centre_uv;

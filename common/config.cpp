@@ -52,6 +52,18 @@ std::optional<YAML::Node> findNode(const YAML::Node& root, const std::string& ke
   return *node;
 }
 
+// The key's own node when it is there but holds nothing ("key:" or "key: ~"); nullopt otherwise.
+std::optional<YAML::Node> findNullLeaf(const YAML::Node& root, const std::string& key) {
+  const auto parts = splitKey(key);
+  const std::string parent = key.substr(0, key.size() - parts.back().size());
+  const auto section = parent.empty() ? std::optional<YAML::Node>(root)
+                                      : findNode(root, parent.substr(0, parent.size() - 1));
+  if (!section || !section->IsMap()) return std::nullopt;
+  for (const auto& kv : *section)  // the key's node: an empty value's mark is the next line
+    if (kv.first.as<std::string>() == parts.back() && kv.second.IsNull()) return kv.first;
+  return std::nullopt;
+}
+
 void collectLeaves(const YAML::Node& node, const std::string& prefix, std::vector<std::string>& out) {
   if (node.IsMap()) {
     for (const auto& kv : node) {
@@ -150,6 +162,8 @@ Config& Config::operator=(Config&&) noexcept = default;
 
 Config Config::load(const std::filesystem::path& file) {
   if (!std::filesystem::exists(file)) fail("config file '{}' does not exist", file.string());
+  if (std::filesystem::is_directory(file))
+    fail("config file '{}' is a folder, expected a YAML file", file.string());
   std::ifstream in(file);
   if (!in) fail("config file '{}' cannot be read", file.string());
   std::stringstream ss;
@@ -232,8 +246,13 @@ template <typename T>
 T Config::get(const std::string& key, const T& fallback) const {
   impl_->used.insert(key);
   const auto node = findNode(impl_->root, key);
-  if (!node) return fallback;
   const Impl& im = *impl_;
+  // "key:" with nothing after it is a mistake, not a request for the built-in default.
+  if (!node)
+    if (const auto empty = findNullLeaf(impl_->root, key))
+      fail("{}: key '{}': no value (give one, or leave the key out for the default)",
+           where(im, key, *empty), key);
+  if (!node) return fallback;
   if constexpr (std::is_same_v<T, bool>) {
     return asBool(im, key, *node);
   } else if constexpr (std::is_same_v<T, int>) {

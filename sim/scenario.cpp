@@ -80,7 +80,9 @@ Scenario readScenario(const Config& c) {
   s.duration_s = c.getInRange("duration_s", 0.0, 0.0, 3600.0);
   s.frames = c.getIntInRange("frames", 0, 0, 1'000'000);
   s.start_time_ns = c.get<std::int64_t>("start_time_ns", s.start_time_ns);
-  if (s.start_time_ns < 0) fail("{}: key 'start_time_ns': expected >= 0", c.source());
+  // At most 4e18 ns (the year 2096): a sequence's stamps must not overflow 2^63.
+  if (s.start_time_ns < 0 || s.start_time_ns > 4'000'000'000'000'000'000LL)
+    fail("{}: key 'start_time_ns': expected 0 to 4e18 ns, got {}", c.source(), s.start_time_ns);
 
   WorldOptions& w = s.world;
   const WorldOptions dw;
@@ -124,6 +126,11 @@ Scenario readScenario(const Config& c) {
   t.body_height_m = c.getInRange("trajectory.body_height_m", dt.body_height_m, 0.0, 5.0);
   t.first_interrow = c.getIntInRange("trajectory.first_interrow", dt.first_interrow, 0, 199);
   t.passes = c.getIntInRange("trajectory.passes", dt.passes, 1, 100);
+  if (t.first_interrow > std::max(0, s.world.num_rows - 2))
+    fail(
+        "{}: key 'trajectory.first_interrow': {} is no interrow of a {}-row world (expected 0 to "
+        "{})",
+        c.source(), t.first_interrow, s.world.num_rows, std::max(0, s.world.num_rows - 2));
   t.first_pass_m = c.getInRange("trajectory.first_pass_m", dt.first_pass_m, 0.0, 1000.0);
   t.last_pass_m = c.getInRange("trajectory.last_pass_m", dt.last_pass_m, 0.0, 1000.0);
   t.headland_entry_m = c.getInRange("trajectory.headland_entry_m", dt.headland_entry_m, 0.0, 50.0);

@@ -124,6 +124,16 @@ TEST(UndistortCommand, WritesTheToolboxPerspectiveViewAndRejectsBadInput) {
                          nullptr, &err),
             2);
   EXPECT_NE(err.find("missing.txt"), std::string::npos) << err;
+  // Absurd sizes: an error naming the option (100000 x 100000 ran out of memory: exit 3).
+  const std::string good = "undistort --calib " + (dir / "calib_results_fisheye.txt").string() +
+                           " --image " + (dir / "test_fisheye.jpg").string() + " --out " +
+                           out.string();
+  EXPECT_EQ(test::runOvo(good + " --panoramic --width 100000 --height 100000", nullptr, &err), 2);
+  EXPECT_NE(err.find("--width/--height: expected a size of 1 to 20000"), std::string::npos) << err;
+  EXPECT_EQ(test::runOvo(good + " --panoramic --rmax 1e300", nullptr, &err), 2);
+  EXPECT_NE(err.find("--rmin/--rmax"), std::string::npos) << err;
+  EXPECT_EQ(test::runOvo(good + " --sf inf", nullptr, &err), 2);
+  EXPECT_NE(err.find("--sf: expected a scale factor in [0.01, 10000]"), std::string::npos) << err;
 }
 
 }  // namespace

@@ -70,6 +70,26 @@ TEST(Config, OverrideBelowAValueNamesTheOverride) {
   EXPECT_CONTAINS(test::errorOf([&] { (void)d.get<int>("a.n", 3); }), "--set a.n.x:");
 }
 
+// An empty value is an error, not the built-in default (which differs from what the file meant).
+TEST(Config, EmptyValueIsAnErrorNamingTheKey) {
+  const Config c = Config::fromString("a:\n  b:\n  c: ~\n  d: 2\n", "cfg.yaml");
+  EXPECT_CONTAINS(test::errorOf([&] { (void)c.get<double>("a.b", 8.0); }),
+                  "cfg.yaml:2: key 'a.b': no value");
+  EXPECT_CONTAINS(test::errorOf([&] { (void)c.getInRange("a.c", 8.0, 0.0, 10.0); }),
+                  "key 'a.c': no value");
+  EXPECT_EQ(c.get<int>("a.d", 0), 2);
+  EXPECT_EQ(c.get<int>("a.absent", 5), 5);  // a key left out keeps its default
+  Config o;
+  o.applyOverride("w.size=");
+  EXPECT_CONTAINS(test::errorOf([&] { (void)o.get<int>("w.size", 10); }),
+                  "--set w.size: key 'w.size': no value");
+}
+
+TEST(Config, FolderGivenAsFileIsAnError) {
+  EXPECT_CONTAINS(test::errorOf([&] { Config::load(test::tempDir()); }),
+                  "is a folder, expected a YAML file");
+}
+
 TEST(Config, RangeAndChoiceChecks) {
   const Config c = Config::fromString("rate: -3\nmode: turbo\n", "cfg.yaml");
   EXPECT_THROW(c.getInRange("rate", 1.0, 0.0, 100.0), Error);

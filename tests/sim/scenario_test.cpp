@@ -33,6 +33,21 @@ TEST(Scenario, OutOfRangeValueNamesTheKey) {
   EXPECT_NE(msg.find("world.grade_pct"), std::string::npos) << msg;
 }
 
+// Values in range that still make no sequence: an interrow outside the field (the robot drove
+// 376 m away), a start time whose stamps overflow 2^63 (they turned negative).
+TEST(Scenario, InterrowOutsideTheFieldAndOverflowingStartAreErrors) {
+  std::string msg = errorOf(
+      "camera:\n  model: pinhole\nworld:\n  num_rows: 1\ntrajectory:\n  first_interrow: 150\n");
+  EXPECT_NE(msg.find("'trajectory.first_interrow': 150 is no interrow of a 1-row world"),
+            std::string::npos)
+      << msg;
+  msg = errorOf("camera:\n  model: pinhole\nstart_time_ns: 9223372036854775807\n");
+  EXPECT_NE(msg.find("'start_time_ns': expected 0 to 4e18 ns"), std::string::npos) << msg;
+  EXPECT_EQ(errorOf("camera:\n  model: pinhole\nworld:\n  num_rows: 6\ntrajectory:\n  "
+                    "first_interrow: 4\n"),
+            "");
+}
+
 TEST(Scenario, LidarRateMustDivideCameraRate) {
   const std::string msg =
       errorOf("camera:\n  model: pinhole\n  rate_hz: 20\nlidar:\n  rate_hz: 7\n");
