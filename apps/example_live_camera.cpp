@@ -113,9 +113,14 @@ std::optional<ovo::ImuSample> parseGyroLine(const std::string& line) {
 }
 
 // Reads gyro lines from stdin until EOF or stop (poll, so Ctrl-C is never stuck in a read).
+// A gyro line is under 200 characters; a longer one is garbage (and, unbounded, made the search
+// for its end rescan the buffer with every chunk: a 64 MB line stalled the reader).
+constexpr std::size_t kMaxGyroLine = 4096;
+
 void readGyro(ovo::app::OnlinePipeline& pipeline, std::atomic<bool>& eof) {
   std::string buffer;
   long line_no = 0;
+  bool skipping_long_line = false;
   char chunk[4096];
   while (!g_stop) {
     pollfd pfd{STDIN_FILENO, POLLIN, 0};
@@ -130,13 +135,26 @@ void readGyro(ovo::app::OnlinePipeline& pipeline, std::atomic<bool>& eof) {
       const std::string line = buffer.substr(start, end - start);
       start = end + 1;
       ++line_no;
+      if (skipping_long_line) {  // the end of a line already reported as too long
+        skipping_long_line = false;
+        continue;
+      }
       if (line.empty() || line[0] == '#' || line == "\r") continue;
-      if (const auto s = parseGyroLine(line))
-        pipeline.addGyro(*s);
-      else
+      const auto s = parseGyroLine(line);
+      if (!s)
         spdlog::warn("stdin:{}: expected t_ns,wx,wy,wz[,ax,ay,az]: line skipped", line_no);
+      else if (!pipeline.addGyro(*s) && !g_stop)
+        spdlog::warn("stdin:{}: gyro time stamp {} is not after the previous one: line skipped",
+                     line_no, s->t_ns);
     }
     buffer.erase(0, start);
+    if (buffer.size() > kMaxGyroLine) {
+      if (!skipping_long_line)
+        spdlog::warn("stdin:{}: a line longer than {} characters: skipped", line_no + 1,
+                     kMaxGyroLine);
+      skipping_long_line = true;
+      buffer.clear();
+    }
   }
   eof = true;
 }

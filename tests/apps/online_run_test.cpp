@@ -111,7 +111,8 @@ std::optional<LiveInputs> makeLiveInputs(const fs::path& dir, int frames) {
   gyro << "#t_ns,wx,wy,wz\n";
   for (int i = 0; i <= 200 * frames / 10 + 20; ++i) {
     gyro << i * 5'000'000LL << ",0.001,-0.002,0.0005\n";
-    if (i == 3) gyro << "not,a,number\n";  // line 6 of the stream: warned about and skipped
+    if (i == 3) gyro << "not,a,number\n";   // line 6 of the stream: warned about and skipped
+    if (i == 5) gyro << "5000000,0,0,0\n";  // line 9: an old stamp, warned about and skipped
   }
   return in;
 }
@@ -134,6 +135,9 @@ TEST(LiveCamera, RunsAVideoFileWithGyroFromStdinAndPrintsPoses) {
   ASSERT_EQ(code, 0) << out << err;
   // Messages go to standard error; standard output is the pose stream alone.
   EXPECT_NE(err.find("stdin:6: expected t_ns,wx,wy,wz"), std::string::npos) << err;
+  EXPECT_NE(err.find("stdin:9: gyro time stamp 5000000 is not after the previous one"),
+            std::string::npos)
+      << err;
   EXPECT_NE(err.find("12 frames in"), std::string::npos) << err;
   // Pose lines: 8 numbers, times 0.0, 0.1, ... (frame index / 10 fps).
   std::istringstream lines(out);
