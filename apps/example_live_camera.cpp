@@ -179,10 +179,7 @@ int run(const Args& args) {
   const auto T_B_C_calib = camera::readSensorYamlExtrinsics(args.calib);
   if (!args.rig.empty()) {
     const io::RigInfo rig = io::readRigYaml(args.rig);
-    // As for a dataset: without T_B_C in the rig, the calibration's T_BS.
-    if (!rig.has_T_B_C && !T_B_C_calib)
-      fail("{}: no T_B_C and no T_BS in --calib {}: expected one of them", args.rig, args.calib);
-    setup.T_B_C = rig.has_T_B_C ? rig.T_B_C : *T_B_C_calib;
+    setup.T_B_C = io::cameraExtrinsics(rig, T_B_C_calib, args.rig);  // as for a dataset
     setup.T_B_L = rig.T_B_L;
     setup.camera_rate_hz = rig.camera_rate_hz, setup.pixel_sigma = rig.pixel_sigma;
     setup.camera_height_m = rig.camera_height_m;

@@ -54,13 +54,13 @@ std::optional<YAML::Node> findNode(const YAML::Node& root, const std::string& ke
 
 // The key's own node when it is there but holds nothing ("key:" or "key: ~"); nullopt otherwise.
 std::optional<YAML::Node> findNullLeaf(const YAML::Node& root, const std::string& key) {
-  const auto parts = splitKey(key);
-  const std::string parent = key.substr(0, key.size() - parts.back().size());
-  const auto section = parent.empty() ? std::optional<YAML::Node>(root)
-                                      : findNode(root, parent.substr(0, parent.size() - 1));
+  const std::size_t dot = key.rfind('.');
+  const auto section = dot == std::string::npos ? std::optional<YAML::Node>(root)
+                                                : findNode(root, key.substr(0, dot));
   if (!section || !section->IsMap()) return std::nullopt;
+  const std::string name = dot == std::string::npos ? key : key.substr(dot + 1);
   for (const auto& kv : *section)  // the key's node: an empty value's mark is the next line
-    if (kv.first.as<std::string>() == parts.back() && kv.second.IsNull()) return kv.first;
+    if (kv.first.as<std::string>() == name && kv.second.IsNull()) return kv.first;
   return std::nullopt;
 }
 
@@ -247,12 +247,13 @@ T Config::get(const std::string& key, const T& fallback) const {
   impl_->used.insert(key);
   const auto node = findNode(impl_->root, key);
   const Impl& im = *impl_;
-  // "key:" with nothing after it is a mistake, not a request for the built-in default.
-  if (!node)
+  if (!node) {
+    // "key:" with nothing after it is a mistake, not a request for the built-in default.
     if (const auto empty = findNullLeaf(impl_->root, key))
       fail("{}: key '{}': no value (give one, or leave the key out for the default)",
            where(im, key, *empty), key);
-  if (!node) return fallback;
+    return fallback;
+  }
   if constexpr (std::is_same_v<T, bool>) {
     return asBool(im, key, *node);
   } else if constexpr (std::is_same_v<T, int>) {

@@ -183,17 +183,7 @@ Dataset loadOvo(const fs::path& root, const fs::path& base) {
       break;
     }
   }
-  if (!ds.rig.has_T_B_C) {
-    // Without T_B_C in a rig file the camera's own T_BS; identity (the camera looking up) would
-    // be no rig at all.
-    if (T_B_C_sensor)
-      ds.rig.T_B_C = *T_B_C_sensor;
-    else if (ds.rig.has_rig_file)
-      fail(
-          "{}: no T_B_C (the camera's pose in the body frame, 4x4 row-major) and no T_BS in a "
-          "cam0/sensor.yaml: expected one of them",
-          rig_file.string());
-  }
+  ds.rig.T_B_C = cameraExtrinsics(ds.rig, T_B_C_sensor, rig_file);
 
   if (fs::exists(base / "imu0" / "data.csv")) ds.imu = readImu(base / "imu0" / "data.csv");
   if (fs::exists(base / "lidar0" / "data.csv")) ds.scans = readLidar(base / "lidar0" / "data.csv");
@@ -326,6 +316,18 @@ Dataset loadKitti(const fs::path& root) {
 }
 
 }  // namespace
+
+SE3 cameraExtrinsics(const RigInfo& rig, const std::optional<SE3>& T_B_C_calib,
+                     const fs::path& rig_file) {
+  if (rig.has_T_B_C) return rig.T_B_C;
+  if (T_B_C_calib) return *T_B_C_calib;
+  if (rig.has_rig_file)
+    fail(
+        "{}: no T_B_C (the camera's pose in the body frame, 4x4 row-major) and no T_BS in the "
+        "camera calibration (sensor.yaml): expected one of them",
+        rig_file.string());
+  return rig.T_B_C;
+}
 
 RigInfo readRigYaml(const fs::path& file) {
   const Config cfg = Config::load(file);

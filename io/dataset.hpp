@@ -78,6 +78,12 @@ cv::Mat loadImageGrey(const ImageEntry& entry);
 /// (throws ovo::Error naming the image and the calibration file when they differ).
 cv::Mat loadDatasetImage(const Dataset& ds, std::size_t index);
 
+/// The camera's pose in the body frame: the rig file's T_B_C when it gives one, else the camera
+/// calibration's own (T_B_C_calib, a sensor.yaml T_BS), else the rig's identity when there is no
+/// rig file. Throws naming rig_file when a rig file gives neither (identity: the camera looks up).
+SE3 cameraExtrinsics(const RigInfo& rig, const std::optional<SE3>& T_B_C_calib,
+                     const std::filesystem::path& rig_file);
+
 /// Reads rig.yaml (unknown keys, bad values and non-rigid transforms are errors naming the key).
 RigInfo readRigYaml(const std::filesystem::path& file);
 

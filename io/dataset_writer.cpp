@@ -47,16 +47,15 @@ class TextFile {
 
 DatasetWriter::DatasetWriter(const fs::path& out, bool overwrite)
     : folder_(out, "--out",
-              overwrite ? StagedFolder::Replace::kAlways : StagedFolder::Replace::kIfEmpty),
-      staging_(folder_.staging()) {
+              overwrite ? StagedFolder::Replace::kAlways : StagedFolder::Replace::kIfEmpty) {
   std::error_code ec;
-  fs::create_directories(staging_ / "cam0" / "data", ec);
-  if (ec) fail("cannot create '{}': {}", (staging_ / "cam0" / "data").string(), ec.message());
+  fs::create_directories(stagingDir() / "cam0" / "data", ec);
+  if (ec) fail("cannot create '{}': {}", (stagingDir() / "cam0" / "data").string(), ec.message());
 }
 
 void DatasetWriter::writeImage(Timestamp t_ns, const cv::Mat& grey8) {
   if (grey8.type() != CV_8UC1) fail("writeImage: expected an 8-bit grey image");
-  const fs::path path = staging_ / "cam0" / "data" / fmt::format("{}.png", t_ns);
+  const fs::path path = stagingDir() / "cam0" / "data" / fmt::format("{}.png", t_ns);
   if (!cv::imwrite(path.string(), grey8, {cv::IMWRITE_PNG_COMPRESSION, 1}))
     fail("cannot write image '{}'", path.string());
   std::lock_guard<std::mutex> lock(mutex_);
@@ -65,15 +64,15 @@ void DatasetWriter::writeImage(Timestamp t_ns, const cv::Mat& grey8) {
 
 void DatasetWriter::writeCamera(const camera::Camera& cam, const SE3& T_B_C, double rate_hz) {
   if (const auto* ocam = std::get_if<camera::OcamCamera>(&cam)) {
-    camera::writeOcamCalib(staging_ / "cam0" / "calib_results.txt", *ocam);
+    camera::writeOcamCalib(stagingDir() / "cam0" / "calib_results.txt", *ocam);
   } else {
-    camera::writeSensorYaml(staging_ / "cam0" / "sensor.yaml", cam, T_B_C, rate_hz);
+    camera::writeSensorYaml(stagingDir() / "cam0" / "sensor.yaml", cam, T_B_C, rate_hz);
   }
 }
 
 void DatasetWriter::writeImu(const std::vector<ImuSample>& samples) {
-  fs::create_directories(staging_ / "imu0");
-  TextFile f(staging_ / "imu0" / "data.csv");
+  fs::create_directories(stagingDir() / "imu0");
+  TextFile f(stagingDir() / "imu0" / "data.csv");
   f.print(
       "#timestamp [ns],w_RS_S_x [rad s^-1],w_RS_S_y [rad s^-1],w_RS_S_z [rad s^-1],"
       "a_RS_S_x [m s^-2],a_RS_S_y [m s^-2],a_RS_S_z [m s^-2]\n");
@@ -84,8 +83,8 @@ void DatasetWriter::writeImu(const std::vector<ImuSample>& samples) {
 }
 
 void DatasetWriter::writeLidar(const std::vector<LidarScan>& scans) {
-  fs::create_directories(staging_ / "lidar0");
-  TextFile f(staging_ / "lidar0" / "data.csv");
+  fs::create_directories(stagingDir() / "lidar0");
+  TextFile f(stagingDir() / "lidar0" / "data.csv");
   f.print(
       "#timestamp [ns],angle_min [rad],angle_increment [rad],range_min [m],range_max [m],ranges "
       "[m]...\n");
@@ -101,11 +100,11 @@ void DatasetWriter::writeLidar(const std::vector<LidarScan>& scans) {
 }
 
 void DatasetWriter::writeGroundTruth(const Trajectory& T_W_B) {
-  writeTum(staging_ / "groundtruth.txt", T_W_B);
+  writeTum(stagingDir() / "groundtruth.txt", T_W_B);
 }
 
 void DatasetWriter::writeRig(const RigInfo& rig) {
-  TextFile f(staging_ / "rig.yaml");
+  TextFile f(stagingDir() / "rig.yaml");
   f.print("# Rig of this dataset: extrinsics (row-major 4x4) and sensor noise figures.\n");
   f.print("T_B_C: {}   # camera -> body\n", matrixRow16(rig.T_B_C));
   f.print("T_B_L: {}   # LiDAR -> body\n", matrixRow16(rig.T_B_L));
@@ -122,12 +121,12 @@ void DatasetWriter::writeRig(const RigInfo& rig) {
 }
 
 void DatasetWriter::writeTrueGyroBias(const std::vector<std::pair<Timestamp, Vec3>>& bias) {
-  fs::create_directories(staging_ / "sim");
-  writeGyroBiasCsv(staging_ / "sim" / "truth_bias.csv", bias);
+  fs::create_directories(stagingDir() / "sim");
+  writeGyroBiasCsv(stagingDir() / "sim" / "truth_bias.csv", bias);
 }
 
 void DatasetWriter::writeText(const fs::path& relative, const std::string& text) {
-  const fs::path path = staging_ / relative;
+  const fs::path path = stagingDir() / relative;
   fs::create_directories(path.parent_path());
   TextFile f(path);
   f.print("{}", text);
@@ -138,7 +137,7 @@ void DatasetWriter::commit() {
   {
     std::lock_guard<std::mutex> lock(mutex_);
     std::sort(image_stamps_.begin(), image_stamps_.end());
-    TextFile f(staging_ / "cam0" / "data.csv");
+    TextFile f(stagingDir() / "cam0" / "data.csv");
     f.print("#timestamp [ns],filename\n");
     for (Timestamp t : image_stamps_) f.print("{},{}.png\n", t, t);
     f.close();

@@ -26,7 +26,7 @@ class DatasetWriter {
   DatasetWriter(const DatasetWriter&) = delete;
   DatasetWriter& operator=(const DatasetWriter&) = delete;
 
-  const std::filesystem::path& stagingDir() const { return staging_; }
+  const std::filesystem::path& stagingDir() const { return folder_.staging(); }
 
   /// cam0/data/<t_ns>.png (8-bit grey, lossless). Thread-safe.
   void writeImage(Timestamp t_ns, const cv::Mat& grey8);
@@ -50,7 +50,6 @@ class DatasetWriter {
 
  private:
   StagedFolder folder_;
-  std::filesystem::path staging_;  // folder_.staging()
   std::mutex mutex_;
   std::vector<Timestamp> image_stamps_;
 };

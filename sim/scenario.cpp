@@ -126,11 +126,12 @@ Scenario readScenario(const Config& c) {
   t.body_height_m = c.getInRange("trajectory.body_height_m", dt.body_height_m, 0.0, 5.0);
   t.first_interrow = c.getIntInRange("trajectory.first_interrow", dt.first_interrow, 0, 199);
   t.passes = c.getIntInRange("trajectory.passes", dt.passes, 1, 100);
-  if (t.first_interrow > std::max(0, s.world.num_rows - 2))
+  const int last_interrow = std::max(0, s.world.num_rows - 2);
+  if (t.first_interrow > last_interrow)
     fail(
         "{}: key 'trajectory.first_interrow': {} is no interrow of a {}-row world (expected 0 to "
         "{})",
-        c.source(), t.first_interrow, s.world.num_rows, std::max(0, s.world.num_rows - 2));
+        c.source(), t.first_interrow, s.world.num_rows, last_interrow);
   t.first_pass_m = c.getInRange("trajectory.first_pass_m", dt.first_pass_m, 0.0, 1000.0);
   t.last_pass_m = c.getInRange("trajectory.last_pass_m", dt.last_pass_m, 0.0, 1000.0);
   t.headland_entry_m = c.getInRange("trajectory.headland_entry_m", dt.headland_entry_m, 0.0, 50.0);
