@@ -12,6 +12,7 @@
 
 #include "common/error.hpp"
 #include "common/so3.hpp"
+#include "common/yaml_keys.hpp"
 
 namespace ovo::camera {
 namespace fs = std::filesystem;
@@ -95,11 +96,14 @@ YAML::Node loadYaml(const fs::path& file) {
   std::string text = readText(file, "camera calibration");
   // OpenCV-style "%YAML:1.0" directive: not YAML 1.2; blank it (keeping the line numbers).
   if (text.rfind("%YAML", 0) == 0) text[0] = '#';
+  YAML::Node doc;
   try {
-    return YAML::Load(text);
+    doc = YAML::Load(text);
   } catch (const YAML::Exception& e) {
     failAt(file.string(), e.mark.line + 1, "invalid YAML: {}", e.msg);
   }
+  rejectDuplicateKeys(doc, file.string());
+  return doc;
 }
 
 std::string where(const fs::path& file, const YAML::Node& node) {

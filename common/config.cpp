@@ -9,6 +9,7 @@
 #include <sstream>
 
 #include "common/error.hpp"
+#include "common/yaml_keys.hpp"
 
 namespace ovo {
 
@@ -178,6 +179,7 @@ Config Config::fromString(const std::string& yaml, const std::string& source_nam
     YAML::Node root = YAML::Load(yaml);
     if (root.IsNull()) root = YAML::Node(YAML::NodeType::Map);
     if (!root.IsMap()) fail("{}: expected a YAML mapping (key: value lines) at the top", source_name);
+    rejectDuplicateKeys(root, source_name);
     c.impl_->root = root;
   } catch (const YAML::Exception& e) {
     fail("{}:{}: invalid YAML: {}", source_name, e.mark.line + 1, e.msg);

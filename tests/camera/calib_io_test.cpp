@@ -139,6 +139,8 @@ TEST(CalibIo, BadYamlNamesFileAndKey) {
   expectYamlError(head + "intrinsics: [458, 457, -1, 248]\n", "principal point (-1, 248)");
   expectYamlError("camera_model: omni\n", "camera_model");
   expectYamlError("camera_model: [pinhole\n", ":2:");
+  expectYamlError(head + "intrinsics: [458, 457, 367, 248]\nintrinsics: [1, 1, 376, 240]\n",
+                  ":5: key 'intrinsics' given twice (first on line 4)");
   EXPECT_THROW(loadCamera(test::tempDir() / "absent.yaml"), Error);
 }
 

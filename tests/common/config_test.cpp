@@ -11,7 +11,8 @@ namespace ovo {
 namespace {
 
 TEST(Config, ReadsTypedValuesAndDefaults) {
-  const Config c = Config::fromString("a:\n  b: 2.5\n  n: 3\n  flag: true\n  name: fish\nlist: [1, 2, 3]\n", "t.yaml");
+  const Config c = Config::fromString(
+      "a:\n  b: 2.5\n  n: 3\n  flag: true\n  name: fish\nlist: [1, 2, 3]\n", "t.yaml");
   EXPECT_DOUBLE_EQ(c.get<double>("a.b", 0.0), 2.5);
   EXPECT_EQ(c.get<int>("a.n", 0), 3);
   EXPECT_TRUE(c.get<bool>("a.flag", false));
@@ -85,6 +86,24 @@ TEST(Config, EmptyValueIsAnErrorNamingTheKey) {
                   "--set w.size: key 'w.size': no value");
 }
 
+TEST(Config, KeyGivenTwiceIsAnErrorNamingBothLines) {
+  // yaml-cpp keeps both entries and a lookup finds the first: the later line would be ignored.
+  EXPECT_CONTAINS(
+      test::errorOf([] { Config::fromString("seed: 1\nrate: 2\nseed: 3\n", "c.yaml"); }),
+      "c.yaml:3: key 'seed' given twice (first on line 1)");
+  EXPECT_CONTAINS(test::errorOf([] {
+                    Config::fromString("world:\n  grade_pct: 8\n  grade_pct: 30\n", "c.yaml");
+                  }),
+                  "c.yaml:3: key 'grade_pct' given twice (first on line 2)");
+  EXPECT_CONTAINS(test::errorOf([] {
+                    Config::fromString("rows:\n  - {a: 1, b: 2}\n  - {a: 1, a: 2}\n", "c.yaml");
+                  }),
+                  "c.yaml:3: key 'a' given twice");
+  // The same name in two sections is two keys.
+  const Config c = Config::fromString("a:\n  x: 1\nb:\n  x: 2\n", "c.yaml");
+  EXPECT_EQ(c.get<int>("b.x", 0), 2);
+}
+
 TEST(Config, FolderGivenAsFileIsAnError) {
   EXPECT_CONTAINS(test::errorOf([&] { Config::load(test::tempDir()); }),
                   "is a folder, expected a YAML file");
@@ -104,7 +123,8 @@ TEST(Config, MissingFileAndBadYamlAreErrors) {
 
 TEST(Config, Matrix4FromRowsOrFlat) {
   const Config c = Config::fromString(
-      "T: [[1,0,0,1],[0,1,0,2],[0,0,1,3],[0,0,0,1]]\nF: [1,0,0,0, 0,1,0,0, 0,0,1,0, 0,0,0,1]\nB: [1,2]\n");
+      "T: [[1,0,0,1],[0,1,0,2],[0,0,1,3],[0,0,0,1]]\nF: [1,0,0,0, 0,1,0,0, 0,0,1,0, 0,0,0,1]\nB: "
+      "[1,2]\n");
   EXPECT_DOUBLE_EQ(c.get<Eigen::Matrix4d>("T", Eigen::Matrix4d::Zero())(1, 3), 2.0);
   EXPECT_TRUE(c.get<Eigen::Matrix4d>("F", Eigen::Matrix4d::Zero()).isIdentity());
   EXPECT_THROW(c.get<Eigen::Matrix4d>("B", Eigen::Matrix4d::Zero()), Error);
