@@ -23,6 +23,17 @@ struct Reanchor {
   double rho = 0.0;
 };
 
+// Seconds of the last velocity that the prediction carries the robot over a gap of dt: all of it
+// up to kFullCoastS (dropped frames), then decaying by decay_per_s (the fraction kept per s).
+// Nothing measures the motion over a long gap; coasting through an hour at 0.8 m/s would put the
+// robot 2.9 km away.
+constexpr double kFullCoastS = 1.0;
+double coastSeconds(double dt, double decay_per_s) {
+  if (dt <= kFullCoastS || decay_per_s >= 1.0) return dt;
+  if (decay_per_s <= 0.0) return kFullCoastS;
+  return kFullCoastS + (1.0 - std::pow(decay_per_s, dt - kFullCoastS)) / -std::log(decay_per_s);
+}
+
 double median(std::vector<double> v) {
   if (v.empty()) return 0.0;
   auto mid = v.begin() + static_cast<long>(v.size() / 2);
@@ -392,7 +403,7 @@ FrameEstimate WindowCore::processFrame(const VisualFrame& frame_in) {
     return e;
   }
 
-  // Prediction: gyro rotation, decaying constant velocity.
+  // Prediction: gyro rotation, constant velocity (decaying after a long gap).
   const double dt = toSeconds(frame.t_ns - last_t_);
   SE3 T_pred = last_T_W_B_;
   double rot_sigma = options_.rotation_prior_sigma_rad;
@@ -410,7 +421,8 @@ FrameEstimate WindowCore::processFrame(const VisualFrame& frame_in) {
       in_gap_ = false;
     }
   }
-  T_pred.translation() = last_T_W_B_.translation() + velocity_W_ * dt;
+  T_pred.translation() =
+      last_T_W_B_.translation() + velocity_W_ * coastSeconds(dt, options_.velocity_decay_per_s);
 
   // Flow to the previous frame (standstill detector).
   std::vector<double> flows;

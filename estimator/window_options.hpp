@@ -141,7 +141,8 @@ struct WindowOptions {
                                    // left out of that mean (they hold its start), s
 
   // Tracking loss.
-  double velocity_decay_per_s = 0.5;  // constant-velocity decay while lost (fraction kept per s)
+  double velocity_decay_per_s = 0.5;  // constant-velocity decay while lost and over gaps in
+                                      // the frames beyond 1 s (fraction kept per s)
   int reinit_after_lost_frames = 5;   // lost this long: restart the window at the current pose
 
   // Solver.

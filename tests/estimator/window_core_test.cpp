@@ -245,6 +245,28 @@ TEST(WindowCore, GyroGapAndDroppedFramesKeepTheTrajectoryContinuous) {
             0.05 * pathLength(seq));
 }
 
+TEST(WindowCore, ALongCameraAndGyroGapDoesNotCoastOnTheLastVelocity) {
+  // Every sensor stops for an hour (a camera unplugged, a stamp jump) while the robot is driving.
+  // Nothing measures the motion over the gap: the prediction must not carry the last velocity
+  // across it (0.8 m/s for an hour is 2.9 km; a stamp jump of centuries went to 1e10 m).
+  SyntheticOptions o;
+  auto seq = makeSyntheticSequence(o);
+  const Timestamp gap_at = seq.frames[70].t_ns - 1;
+  const Timestamp hour = 3600LL * 1000000000LL;
+  for (auto& f : seq.frames)
+    if (f.t_ns > gap_at) f.t_ns = f.visual.t_ns = f.t_ns + hour;
+  for (auto& g : seq.imu)
+    if (g.t_ns > gap_at) g.t_ns += hour;
+  for (auto& l : seq.scans)
+    if (l.t_ns > gap_at) l.t_ns += hour;
+  const auto r = run(seq);
+  expectAllFinite(r);
+  EXPECT_GE(r.stats.gyro_gaps, 1);
+  // At most 1 s at the last speed and the decay's 1 / ln 2 s after it (velocity_decay_per_s 0.5):
+  // 2.44 s of driving, not an hour's.
+  EXPECT_LT(maxStep(r.trajectory), (1.0 + 1.0 / std::log(2.0)) * o.speed_mps + 0.1);
+}
+
 TEST(WindowCore, BeamsUnderTheCanopyDoNotOutvoteTheGroundPlane) {
   // Seen by a pinhole camera (an ideal 640x480 one, narrower than the fisheye), few beams that
   // reach the ground land next to a track. At the initialisation of seeds 2 and 13, the beams that
