@@ -333,14 +333,27 @@ double Config::getInRange(const std::string& key, double fallback, double lo, do
   return v;
 }
 
-int Config::getIntInRange(const std::string& key, int fallback, int lo, int hi) const {
-  const int v = get<int>(key, fallback);
+namespace {
+template <typename T>
+T integerInRange(const Config& c, const Config::Impl& impl, const std::string& key, T fallback,
+                 T lo, T hi) {
+  const T v = c.get<T>(key, fallback);
   if (v < lo || v > hi) {
-    const auto node = findNode(impl_->root, key);
-    fail("{}: key '{}': expected an integer in [{}, {}], got {}", node ? where(*impl_, key, *node) : impl_->source,
+    const auto node = findNode(impl.root, key);
+    fail("{}: key '{}': expected an integer in [{}, {}], got {}", node ? where(impl, key, *node) : impl.source,
          key, lo, hi, v);
   }
   return v;
+}
+}  // namespace
+
+int Config::getIntInRange(const std::string& key, int fallback, int lo, int hi) const {
+  return integerInRange(*this, *impl_, key, fallback, lo, hi);
+}
+
+std::int64_t Config::getInt64InRange(const std::string& key, std::int64_t fallback,
+                                     std::int64_t lo, std::int64_t hi) const {
+  return integerInRange(*this, *impl_, key, fallback, lo, hi);
 }
 
 std::string Config::getChoice(const std::string& key, const std::string& fallback,

@@ -6,6 +6,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <cstdint>
 #include <filesystem>
 #include <memory>
 #include <optional>
@@ -52,6 +53,8 @@ class Config {
   /// Reads a number and checks lo <= value <= hi (error names the key and the range).
   double getInRange(const std::string& key, double fallback, double lo, double hi) const;
   int getIntInRange(const std::string& key, int fallback, int lo, int hi) const;
+  std::int64_t getInt64InRange(const std::string& key, std::int64_t fallback, std::int64_t lo,
+                               std::int64_t hi) const;
   /// Reads a string that must be one of `choices`.
   std::string getChoice(const std::string& key, const std::string& fallback,
                         const std::vector<std::string>& choices) const;
@@ -66,7 +69,7 @@ class Config {
   std::string dump() const;
   const std::string& source() const;
 
- struct Impl;  // opaque (yaml-cpp stays out of the header)
+  struct Impl;  // opaque (yaml-cpp stays out of the header)
 
  private:
   std::unique_ptr<Impl> impl_;

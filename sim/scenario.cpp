@@ -4,6 +4,7 @@
 #include <fmt/ranges.h>
 
 #include <cmath>
+#include <limits>
 
 #include "common/config.hpp"
 #include "common/error.hpp"
@@ -74,15 +75,13 @@ SE3 lidarMountTransform(const MountOptions& mount) {
 Scenario readScenario(const Config& c) {
   Scenario s;
   s.name = c.get<std::string>("name", std::filesystem::path(c.source()).stem().string());
-  const std::int64_t seed = c.get<std::int64_t>("seed", 1);
-  if (seed < 0) fail("{}: key 'seed': expected a non-negative integer", c.source());
-  s.seed = static_cast<std::uint64_t>(seed);
+  s.seed = static_cast<std::uint64_t>(
+      c.getInt64InRange("seed", 1, 0, std::numeric_limits<std::int64_t>::max()));
   s.duration_s = c.getInRange("duration_s", 0.0, 0.0, 3600.0);
   s.frames = c.getIntInRange("frames", 0, 0, 1'000'000);
-  s.start_time_ns = c.get<std::int64_t>("start_time_ns", s.start_time_ns);
   // At most 4e18 ns (the year 2096): a sequence's stamps must not overflow 2^63.
-  if (s.start_time_ns < 0 || s.start_time_ns > 4'000'000'000'000'000'000LL)
-    fail("{}: key 'start_time_ns': expected 0 to 4e18 ns, got {}", c.source(), s.start_time_ns);
+  s.start_time_ns =
+      c.getInt64InRange("start_time_ns", s.start_time_ns, 0, 4'000'000'000'000'000'000LL);
 
   WorldOptions& w = s.world;
   const WorldOptions dw;

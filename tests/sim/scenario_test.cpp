@@ -42,10 +42,28 @@ TEST(Scenario, InterrowOutsideTheFieldAndOverflowingStartAreErrors) {
             std::string::npos)
       << msg;
   msg = errorOf("camera:\n  model: pinhole\nstart_time_ns: 9223372036854775807\n");
-  EXPECT_NE(msg.find("'start_time_ns': expected 0 to 4e18 ns"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("scenario.yaml:3: key 'start_time_ns': expected an integer in [0, "
+                     "4000000000000000000]"),
+            std::string::npos)
+      << msg;
   EXPECT_EQ(errorOf("camera:\n  model: pinhole\nworld:\n  num_rows: 6\ntrajectory:\n  "
                     "first_interrow: 4\n"),
             "");
+}
+
+TEST(Scenario, NegativeSeedNamesWhereItWasGiven) {
+  EXPECT_NE(errorOf("camera:\n  model: pinhole\nseed: -1\n").find("scenario.yaml:3: key 'seed'"),
+            std::string::npos);
+  Config c = Config::fromString("camera:\n  model: pinhole\nseed: 4\n", "scenario.yaml");
+  c.applyOverride("seed=-1");  // the file's value is fine: the error names the --set
+  try {
+    readScenario(c);
+    ADD_FAILURE() << "no error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("--set seed: key 'seed': expected an integer in [0, "),
+              std::string::npos)
+        << e.what();
+  }
 }
 
 TEST(Scenario, LidarRateMustDivideCameraRate) {
