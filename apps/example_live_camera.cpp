@@ -112,11 +112,11 @@ std::optional<ovo::ImuSample> parseGyroLine(const std::string& line) {
   return s;
 }
 
-// Reads gyro lines from stdin until EOF or stop (poll, so Ctrl-C is never stuck in a read).
 // A gyro line is under 200 characters; a longer one is garbage (and, unbounded, made the search
 // for its end rescan the buffer with every chunk: a 64 MB line stalled the reader).
 constexpr std::size_t kMaxGyroLine = 4096;
 
+// Reads gyro lines from stdin until EOF or stop (poll, so Ctrl-C is never stuck in a read).
 void readGyro(ovo::app::OnlinePipeline& pipeline, std::atomic<bool>& eof) {
   std::string buffer;
   long line_no = 0;

@@ -325,35 +325,28 @@ OVO_CONFIG_INSTANTIATE(Eigen::Matrix4d)
 
 double Config::getInRange(const std::string& key, double fallback, double lo, double hi) const {
   const double v = get<double>(key, fallback);
-  if (v < lo || v > hi) {
-    const auto node = findNode(impl_->root, key);
-    fail("{}: key '{}': expected a number in [{}, {}], got {}", node ? where(*impl_, key, *node) : impl_->source,
-         key, lo, hi, v);
-  }
+  if (v < lo || v > hi)
+    fail("{}: key '{}': expected a number in [{}, {}], got {}", location(key), key, lo, hi, v);
   return v;
 }
 
 namespace {
 template <typename T>
-T integerInRange(const Config& c, const Config::Impl& impl, const std::string& key, T fallback,
-                 T lo, T hi) {
+T integerInRange(const Config& c, const std::string& key, T fallback, T lo, T hi) {
   const T v = c.get<T>(key, fallback);
-  if (v < lo || v > hi) {
-    const auto node = findNode(impl.root, key);
-    fail("{}: key '{}': expected an integer in [{}, {}], got {}", node ? where(impl, key, *node) : impl.source,
-         key, lo, hi, v);
-  }
+  if (v < lo || v > hi)
+    fail("{}: key '{}': expected an integer in [{}, {}], got {}", c.location(key), key, lo, hi, v);
   return v;
 }
 }  // namespace
 
 int Config::getIntInRange(const std::string& key, int fallback, int lo, int hi) const {
-  return integerInRange(*this, *impl_, key, fallback, lo, hi);
+  return integerInRange(*this, key, fallback, lo, hi);
 }
 
 std::int64_t Config::getInt64InRange(const std::string& key, std::int64_t fallback,
                                      std::int64_t lo, std::int64_t hi) const {
-  return integerInRange(*this, *impl_, key, fallback, lo, hi);
+  return integerInRange(*this, key, fallback, lo, hi);
 }
 
 std::string Config::getChoice(const std::string& key, const std::string& fallback,
@@ -362,8 +355,7 @@ std::string Config::getChoice(const std::string& key, const std::string& fallbac
   if (std::find(choices.begin(), choices.end(), v) == choices.end()) {
     std::string list;
     for (const auto& c : choices) list += (list.empty() ? "" : ", ") + c;
-    const auto node = findNode(impl_->root, key);
-    fail("{}: key '{}': expected one of {}, got '{}'", node ? where(*impl_, key, *node) : impl_->source, key, list, v);
+    fail("{}: key '{}': expected one of {}, got '{}'", location(key), key, list, v);
   }
   return v;
 }
@@ -387,10 +379,7 @@ void Config::checkAllUsed() const {
   }
   if (unknown.empty()) return;
   std::string msg;
-  for (const auto& key : unknown) {
-    const auto node = findNode(impl_->root, key);
-    msg += fmt::format("\n  unknown key '{}' ({})", key, node ? where(*impl_, key, *node) : impl_->source);
-  }
+  for (const auto& key : unknown) msg += fmt::format("\n  unknown key '{}' ({})", key, location(key));
   fail("{}: {} unknown configuration key(s):{}", impl_->source, unknown.size(), msg);
 }
 
@@ -407,5 +396,10 @@ std::string Config::dump() const {
 }
 
 const std::string& Config::source() const { return impl_->source; }
+
+std::string Config::location(const std::string& key) const {
+  const auto node = findNode(impl_->root, key);
+  return node ? where(*impl_, key, *node) : impl_->source;
+}
 
 }  // namespace ovo

@@ -68,6 +68,9 @@ class Config {
   /// The effective configuration as YAML text (after overrides).
   std::string dump() const;
   const std::string& source() const;
+  /// Where a key's value came from, for messages: "--set key" when overridden, else "FILE:LINE"
+  /// of the key (the file alone when the key is absent).
+  std::string location(const std::string& key) const;
 
   struct Impl;  // opaque (yaml-cpp stays out of the header)
 

@@ -42,8 +42,8 @@ std::filesystem::path resolveFile(const Config& c, const std::string& key,
       dir = dir.parent_path();
     }
   }
-  fail("{}: key '{}': file '{}' not found (looked in the current folder and beside {})", c.source(),
-       key, value, c.source());
+  fail("{}: key '{}': file '{}' not found (looked in the current folder and beside {})",
+       c.location(key), key, value, c.source());
 }
 
 Mat3 rotZ(double a) { return Eigen::AngleAxisd(a, Vec3::UnitZ()).toRotationMatrix(); }
@@ -94,7 +94,8 @@ Scenario readScenario(const Config& c) {
   w.canopy_bottom_m = c.getInRange("world.canopy_bottom_m", dw.canopy_bottom_m, 0.0, 5.0);
   w.canopy_top_m = c.getInRange("world.canopy_top_m", dw.canopy_top_m, 0.1, 6.0);
   if (w.canopy_top_m <= w.canopy_bottom_m + 0.1)
-    fail("{}: world.canopy_top_m must exceed world.canopy_bottom_m by 0.1 m", c.source());
+    fail("{}: world.canopy_top_m must exceed world.canopy_bottom_m by 0.1 m",
+         c.location("world.canopy_top_m"));
   w.canopy_width_m = c.getInRange("world.canopy_width_m", dw.canopy_width_m, 0.05, 2.0);
   w.canopy_layers = c.getIntInRange("world.canopy_layers", dw.canopy_layers, 1, 6);
   w.leaf_density = c.getInRange("world.leaf_density", dw.leaf_density, 0.0, 1.0);
@@ -108,7 +109,8 @@ Scenario readScenario(const Config& c) {
   w.wire_heights_m = c.get<std::vector<double>>("world.wire_heights_m", dw.wire_heights_m);
   for (double h : w.wire_heights_m)
     if (!(h > 0.0 && h < 5.0))
-      fail("{}: world.wire_heights_m: expected heights in (0, 5) m", c.source());
+      fail("{}: world.wire_heights_m: expected heights in (0, 5) m",
+           c.location("world.wire_heights_m"));
   w.wire_radius_m = c.getInRange("world.wire_radius_m", dw.wire_radius_m, 0.0, 0.05);
   w.grass_width_m = c.getInRange("world.grass_width_m", dw.grass_width_m, 0.0, 10.0);
   w.backdrop = c.get<bool>("world.backdrop", dw.backdrop);
@@ -130,7 +132,7 @@ Scenario readScenario(const Config& c) {
     fail(
         "{}: key 'trajectory.first_interrow': {} is no interrow of a {}-row world (expected 0 to "
         "{})",
-        c.source(), t.first_interrow, s.world.num_rows, last_interrow);
+        c.location("trajectory.first_interrow"), t.first_interrow, s.world.num_rows, last_interrow);
   t.first_pass_m = c.getInRange("trajectory.first_pass_m", dt.first_pass_m, 0.0, 1000.0);
   t.last_pass_m = c.getInRange("trajectory.last_pass_m", dt.last_pass_m, 0.0, 1000.0);
   t.headland_entry_m = c.getInRange("trajectory.headland_entry_m", dt.headland_entry_m, 0.0, 50.0);
@@ -209,11 +211,12 @@ Scenario readScenario(const Config& c) {
   l.angle_increment_deg =
       c.getInRange("lidar.angle_increment_deg", dl.angle_increment_deg, 0.01, 90.0);
   if (l.angle_max_deg <= l.angle_min_deg)
-    fail("{}: lidar.angle_max_deg must exceed lidar.angle_min_deg", c.source());
+    fail("{}: lidar.angle_max_deg must exceed lidar.angle_min_deg",
+         c.location("lidar.angle_max_deg"));
   l.range_min_m = c.getInRange("lidar.range_min_m", dl.range_min_m, 0.0, 100.0);
   l.range_max_m = c.getInRange("lidar.range_max_m", dl.range_max_m, 0.1, 1000.0);
   if (l.range_max_m <= l.range_min_m)
-    fail("{}: lidar.range_max_m must exceed lidar.range_min_m", c.source());
+    fail("{}: lidar.range_max_m must exceed lidar.range_min_m", c.location("lidar.range_max_m"));
   l.range_sigma_m = c.getInRange("lidar.range_sigma_m", dl.range_sigma_m, 0.0, 10.0);
   l.dropout_probability =
       c.getInRange("lidar.dropout_probability", dl.dropout_probability, 0.0, 1.0);
@@ -226,7 +229,7 @@ Scenario readScenario(const Config& c) {
         "{}: lidar.rate_hz ({}) must divide camera.rate_hz ({}) so that LiDAR stamps fall on "
         "camera "
         "frames",
-        c.source(), l.rate_hz, cam.rate_hz);
+        c.location("lidar.rate_hz"), l.rate_hz, cam.rate_hz);
 
   c.checkAllUsed();
   return s;

@@ -104,6 +104,15 @@ TEST(Config, KeyGivenTwiceIsAnErrorNamingBothLines) {
   EXPECT_EQ(c.get<int>("b.x", 0), 2);
 }
 
+TEST(Config, LocationNamesTheKeysLineOrItsOverride) {
+  // What checks across keys (sim/scenario: range_max_m against range_min_m) name in their errors.
+  Config c = Config::fromString("lidar:\n  range_min_m: 1\n  range_max_m: 5\n", "s.yaml");
+  c.applyOverride("lidar.range_min_m=9");
+  EXPECT_EQ(c.location("lidar.range_max_m"), "s.yaml:3");
+  EXPECT_EQ(c.location("lidar.range_min_m"), "--set lidar.range_min_m");
+  EXPECT_EQ(c.location("lidar.absent"), "s.yaml");
+}
+
 TEST(Config, FolderGivenAsFileIsAnError) {
   EXPECT_CONTAINS(test::errorOf([&] { Config::load(test::tempDir()); }),
                   "is a folder, expected a YAML file");
