@@ -452,8 +452,21 @@ FrameEstimate WindowCore::processFrame(const VisualFrame& frame_in) {
   // The first moving frame after still ones closes the standstill's zero-rate update.
   if (!standstill && still_bias_.inStreak()) endStandstill(frame.t_ns);
   int ref_kf = -1;
+  if (!standstill) still_since_.reset();
   if (standstill) {
+    if (!still_since_) still_since_ = frame.t_ns;
     e.T_W_B = last_T_W_B_;
+    // A robot coming to rest creeps on below the flow threshold: for standstill_settle_s the
+    // still frames are still placed against the landmarks, then the pose is held (tracks chained
+    // over still frames creep while the robot stands).
+    if (initialized_ && !map_.empty() &&
+        toSeconds(frame.t_ns - *still_since_) < options_.standstill_settle_s) {
+      std::vector<TrackId> ids;
+      std::size_t landmarks_seen = 0;
+      if (const auto ref =
+              refineAgainstMap(obs, T_pred, have_rotation_prior, rot_sigma, &ids, &landmarks_seen))
+        e.T_W_B = ref->T_W_B;
+    }
     e.tracked = initialized_ || !reference_;
     e.status = "standstill";
     velocity_W_.setZero();
@@ -502,30 +515,11 @@ FrameEstimate WindowCore::processFrame(const VisualFrame& frame_in) {
         still_reference_->keepSightings(static_cast<int>(frames_.size()), frame);
       }
     }
-    // Motion-only refinement against the window's landmarks.
-    std::vector<Vec3> points_W, bearings_C;
     std::vector<TrackId> ids;
-    for (const auto& [id, o] : obs) {
-      if (auto p = map_.pointW(id, setup_.T_B_C)) {
-        points_W.push_back(*p);
-        bearings_C.push_back(o.bearing_C);
-        ids.push_back(id);
-      }
-    }
-    std::optional<PoseRefinement> ref;
-    if (static_cast<int>(points_W.size()) >= options_.min_landmark_observations) {
-      ref = refinePose(points_W, bearings_C, T_pred,
-                       have_rotation_prior ? std::optional<Mat3>(T_pred.linear()) : std::nullopt,
-                       rot_sigma, model_, options_.motion_only_iterations,
-                       options_.outlier_angle_deg * kDegToRad);
-    }
-    // Tracked: enough landmarks fit, and enough of those seen (tracks that crept far during a
-    // standstill leave 5-10 % that fit by chance; a good frame fits 60-95 % of them, the first
-    // frames after a stop on the simulated rows 22-45 %).
-    const bool fits =
-        ref && ref->num_inliers >= options_.min_landmark_observations &&
-        ref->num_inliers >= options_.min_inlier_fraction * static_cast<double>(points_W.size());
-    if (fits) {
+    std::size_t landmarks_seen = 0;
+    const auto ref =
+        refineAgainstMap(obs, T_pred, have_rotation_prior, rot_sigma, &ids, &landmarks_seen);
+    if (ref) {
       lost_frames_ = 0;
       e.T_W_B = ref->T_W_B;
       e.tracked = true;
@@ -559,7 +553,7 @@ FrameEstimate WindowCore::processFrame(const VisualFrame& frame_in) {
     } else {
       e.T_W_B = T_pred;
       e.tracked = false;
-      e.status = points_W.size() < static_cast<std::size_t>(options_.min_landmark_observations)
+      e.status = landmarks_seen < static_cast<std::size_t>(options_.min_landmark_observations)
                      ? "too_few_landmarks"
                      : "refinement_failed";
       velocity_W_ *= std::pow(options_.velocity_decay_per_s, dt);
@@ -609,6 +603,34 @@ FrameEstimate WindowCore::processFrame(const VisualFrame& frame_in) {
   bias_history_.emplace_back(e.t_ns, bias_);
   e.estimator_ms = msSince(t_start);
   return e;
+}
+
+std::optional<PoseRefinement> WindowCore::refineAgainstMap(
+    const std::unordered_map<TrackId, TrackObservation>& obs, const SE3& T_pred,
+    bool rotation_prior, double rot_sigma, std::vector<TrackId>* ids,
+    std::size_t* landmarks_seen) const {
+  std::vector<Vec3> points_W, bearings_C;
+  ids->clear();
+  for (const auto& [id, o] : obs) {
+    if (auto p = map_.pointW(id, setup_.T_B_C)) {
+      points_W.push_back(*p);
+      bearings_C.push_back(o.bearing_C);
+      ids->push_back(id);
+    }
+  }
+  *landmarks_seen = points_W.size();
+  if (static_cast<int>(points_W.size()) < options_.min_landmark_observations) return std::nullopt;
+  auto ref =
+      refinePose(points_W, bearings_C, T_pred,
+                 rotation_prior ? std::optional<Mat3>(T_pred.linear()) : std::nullopt, rot_sigma,
+                 model_, options_.motion_only_iterations, options_.outlier_angle_deg * kDegToRad);
+  // Enough landmarks fit, and enough of those seen (tracks that crept far during a standstill
+  // leave 5-10 % that fit by chance; a good frame fits 60-95 % of them, the first frames after a
+  // stop on the simulated rows 22-45 %).
+  if (!ref || ref->num_inliers < options_.min_landmark_observations ||
+      ref->num_inliers < options_.min_inlier_fraction * static_cast<double>(points_W.size()))
+    return std::nullopt;
+  return ref;
 }
 
 bool WindowCore::isKeyframe(const VisualFrame& frame, const SE3& T_W_B, bool has_scan) const {

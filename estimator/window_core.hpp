@@ -159,6 +159,15 @@ class WindowCore {
   /// With the LiDAR, frames with a scan are preferred: they need less parallax, and a frame
   /// without one whose successor is expected to bring a scan tolerates more track loss.
   bool isKeyframe(const VisualFrame& frame, const SE3& T_W_B, bool has_scan) const;
+  /// Motion-only refinement of a frame's pose against the window's landmarks it sees (obs),
+  /// started at T_pred, whose rotation is a prior of rot_sigma when rotation_prior. *ids: the
+  /// landmarks used, in the order of PoseRefinement::inlier; *landmarks_seen: their number.
+  /// nullopt unless the frame fits: min_landmark_observations inliers and min_inlier_fraction of
+  /// the landmarks seen.
+  std::optional<PoseRefinement> refineAgainstMap(
+      const std::unordered_map<TrackId, TrackObservation>& obs, const SE3& T_pred,
+      bool rotation_prior, double rot_sigma, std::vector<TrackId>* ids,
+      std::size_t* landmarks_seen) const;
   void note(const std::string& text);
   /// Adds a keyframe's LiDAR associations (as they stand when it leaves the window) to stats.
   static void countLidar(const Keyframe& kf, EstimatorStats& stats);
@@ -213,6 +222,7 @@ class WindowCore {
   // initialisation the still frames of every streak add up to the first keyframe's bias prior;
   // after it each streak gives a zero-rate factor on the last keyframe when it ends.
   StandstillBias still_bias_;
+  std::optional<Timestamp> still_since_;     // the first frame of the current still streak
   std::vector<WindowGauge> segment_gauges_;  // each segment's gauge at its start (refine full)
   // The last zero-rate update while initialised, and when its streak ended: the bias prior of
   // a segment that starts soon after it (e.g. the restart from the last still frame).

@@ -100,6 +100,8 @@ WindowOptions readWindowOptions(const Config& c) {
   o.bearing_steps = c.get<bool>(p + "bearing_steps", o.bearing_steps);
   o.track_white_px = c.getInRange(p + "track_white_px", o.track_white_px, 0.0, 100.0);
   o.standstill_trim_s = c.getInRange(p + "standstill_trim_s", o.standstill_trim_s, 0.0, 100.0);
+  o.standstill_settle_s =
+      c.getInRange(p + "standstill_settle_s", o.standstill_settle_s, 0.0, 100.0);
 
   o.velocity_decay_per_s =
       c.getInRange(p + "velocity_decay_per_s", o.velocity_decay_per_s, 0.0, 1.0);

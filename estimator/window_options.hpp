@@ -137,8 +137,11 @@ struct WindowOptions {
   double standstill_min_bias_s = 0.25;       // standstill this long: its mean gyro rate is the bias
                                         // (prior on the first keyframe before initialisation, a
                                         // zero-rate factor on the last keyframe after), s
-  double standstill_trim_s = 0.3;  // the last still frames before the motion was seen are
-                                   // left out of that mean (they hold its start), s
+  double standstill_trim_s = 0.3;    // the last still frames before the motion was seen are
+                                     // left out of that mean (they hold its start), s
+  double standstill_settle_s = 0.3;  // still frames this soon after the streak began are still
+                                     // placed against the landmarks (the robot creeps to rest
+                                     // below the flow threshold), later ones hold the pose, s
 
   // Tracking loss.
   double velocity_decay_per_s = 0.5;  // constant-velocity decay while lost and over gaps in
