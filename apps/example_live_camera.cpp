@@ -116,8 +116,10 @@ std::optional<ovo::ImuSample> parseGyroLine(const std::string& line) {
 // for its end rescan the buffer with every chunk: a 64 MB line stalled the reader).
 constexpr std::size_t kMaxGyroLine = 4096;
 
-// Reads gyro lines from stdin until EOF or stop (poll, so Ctrl-C is never stuck in a read).
-void readGyro(ovo::app::OnlinePipeline& pipeline, std::atomic<bool>& eof) {
+// Reads gyro lines from stdin until EOF or stop (poll, so Ctrl-C is never stuck in a read);
+// counts the lines skipped in *skipped.
+void readGyro(ovo::app::OnlinePipeline& pipeline, std::atomic<bool>& eof,
+              std::atomic<long>& skipped) {
   std::string buffer;
   long line_no = 0;
   bool skipping_long_line = false;
@@ -141,17 +143,22 @@ void readGyro(ovo::app::OnlinePipeline& pipeline, std::atomic<bool>& eof) {
       }
       if (line.empty() || line[0] == '#' || line == "\r") continue;
       const auto s = parseGyroLine(line);
-      if (!s)
+      if (!s) {
+        ++skipped;
         spdlog::warn("stdin:{}: expected t_ns,wx,wy,wz[,ax,ay,az]: line skipped", line_no);
-      else if (!pipeline.addGyro(*s) && !g_stop)
+      } else if (!pipeline.addGyro(*s) && !g_stop) {
+        ++skipped;
         spdlog::warn("stdin:{}: gyro time stamp {} is not after the previous one: line skipped",
                      line_no, s->t_ns);
+      }
     }
     buffer.erase(0, start);
     if (buffer.size() > kMaxGyroLine) {
-      if (!skipping_long_line)
+      if (!skipping_long_line) {
+        ++skipped;
         spdlog::warn("stdin:{}: a line longer than {} characters: skipped", line_no + 1,
                      kMaxGyroLine);
+      }
       skipping_long_line = true;
       buffer.clear();
     }
@@ -217,8 +224,9 @@ int run(const Args& args) {
   });
 
   std::atomic<bool> gyro_eof{args.no_gyro};
+  std::atomic<long> gyro_skipped{0};
   std::thread gyro_thread;
-  if (!args.no_gyro) gyro_thread = std::thread([&] { readGyro(pipeline, gyro_eof); });
+  if (!args.no_gyro) gyro_thread = std::thread([&] { readGyro(pipeline, gyro_eof, gyro_skipped); });
   pipeline.start();
 
   auto capture_loop = [&] {
@@ -269,6 +277,12 @@ int run(const Args& args) {
       "{:.1f} ms; {} gyro samples",
       stats.frames_in, stats.frames_processed, stats.frames_dropped, stats.latencyMedianMs(),
       stats.latencyP99Ms(), stats.gyro_in);
+  // Without a single gyro sample the run was vision-only: not what was asked for.
+  if (!args.no_gyro && stats.gyro_in == 0)
+    fail(
+        "no gyro sample came on standard input ({} lines skipped): expected lines "
+        "t_ns,wx,wy,wz[,ax,ay,az] (rad/s); pass --no-gyro to run on the camera alone",
+        gyro_skipped.load());
   return 0;
 }
 

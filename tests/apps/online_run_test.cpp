@@ -159,6 +159,29 @@ TEST(LiveCamera, RunsAVideoFileWithGyroFromStdinAndPrintsPoses) {
   EXPECT_NEAR(last_t, 1.1, 1e-6);  // the newest frame is never the one dropped
 }
 
+// A gyro stream none of whose lines can be used (here: angles in degrees with a unit) leaves the
+// run vision-only; that is an error, not a quiet exit 0.
+TEST(LiveCamera, FailsWhenNoGyroLineCanBeUsed) {
+  OVO_REQUIRE_DATA("kitti07-first160/image_0/000000.png");
+  OVO_REQUIRE_PROGRAM(liveCameraBinaryPath());
+  const fs::path dir = tempDir();
+  const auto in = makeLiveInputs(dir, 6);
+  if (!in) GTEST_SKIP() << "OpenCV cannot write an MJPG .avi here";
+  {
+    std::ofstream gyro(in->gyro);
+    for (int i = 0; i < 10; ++i) gyro << i * 5'000'000LL << ",0.1 deg/s,0,0\n";
+  }
+  std::string out;
+  const int code = runShell("'" + liveCameraBinaryPath().string() + "' --camera '" +
+                                in->video.string() + "' --calib '" + in->calib.string() +
+                                "' --estimator vo --rate 5 < '" + in->gyro.string() + "'",
+                            dir, &out);
+  EXPECT_EQ(code, 2) << out;
+  EXPECT_NE(out.find("no gyro sample came on standard input (10 lines skipped)"), std::string::npos)
+      << out;
+  EXPECT_NE(out.find("--no-gyro"), std::string::npos) << out;
+}
+
 TEST(LiveCamera, EndsCleanlyOnCtrlC) {
   OVO_REQUIRE_DATA("kitti07-first160/image_0/000000.png");
   OVO_REQUIRE_PROGRAM(liveCameraBinaryPath());
