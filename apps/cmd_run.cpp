@@ -245,9 +245,8 @@ CommandRunner setupRun(CLI::App& sub) {
                    "Replay at sensor rate through the threaded online pipeline (drops frames "
                    "when behind; metrics gain latency_ms_median/_p99 and frames_dropped)")
           ->excludes(serial);
-  // Bounded: 1e-10 slept for ever between frames, 1e-300 overflowed the sleep into none.
   sub.add_option("--rate", args->rate, "Replay speed factor for --realtime (2 = twice as fast)")
-      ->check(CLI::Range(0.01, 1000.0))
+      ->check(CLI::Range(kMinReplayRate, kMaxReplayRate))
       ->needs(realtime)
       ->capture_default_str();
   sub.add_option("--queue-depth", args->queue_depth,

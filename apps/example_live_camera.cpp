@@ -308,7 +308,7 @@ int main(int argc, char** argv) {
   app.add_option("--fps", args.fps, "Frame rate of a video file (default: from the file)")
       ->check(CLI::Range(0.1, 1000.0));
   app.add_option("--rate", args.rate, "Replay speed of a video file")
-      ->check(CLI::Range(0.01, 1000.0))
+      ->check(CLI::Range(ovo::app::kMinReplayRate, ovo::app::kMaxReplayRate))
       ->capture_default_str();
   app.add_option("--t0-ns", args.t0_ns, "Time of a video file's first frame [ns]")
       ->check(CLI::Range(0LL, 4'000'000'000'000'000'000LL));

@@ -30,6 +30,11 @@
 
 namespace ovo::app {
 
+/// Bounds of a recording's replay speed (ovo run --realtime --rate, ovo_live_camera --rate for a
+/// video file): 1e-10 slept for ever between frames, 1e-300 overflowed the sleep into none.
+inline constexpr double kMinReplayRate = 0.01;
+inline constexpr double kMaxReplayRate = 1000.0;
+
 struct OnlineOptions {
   int image_queue_depth = 2;   // frames waiting for the frontend; beyond it the oldest is dropped
   int frame_queue_depth = 2;   // tracked frames waiting for the estimator stage (frontend waits)

@@ -108,7 +108,7 @@ WindowCore::WindowCore(const SensorSetup& setup, const WindowOptions& options,
   model_.bearing_sigma_rad = pixel_sigma / camera::focalPx(setup.camera);
   model_.bearing_huber = options.bearing_huber_sigmas;
   model_.bearing_creep_rad = options.track_creep_px / camera::focalPx(setup.camera);
-  model_.bearing_steps = options.bearing_steps && options.track_creep_px > 0.0;
+  model_.bearing_steps = useBearingSteps(options.bearing_steps, options);
   model_.step_white_rad = options.track_white_px / camera::focalPx(setup.camera);
   model_.lidar_ground_sigma_m = options.lidar_ground_sigma_m;
   model_.lidar_range_sigma_m =

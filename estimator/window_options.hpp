@@ -180,4 +180,11 @@ struct WindowOptions {
 /// Reads every "window." key (and "gyro." through factors::readGyroPreintegrationOptions).
 WindowOptions readWindowOptions(const Config& config);
 
+/// Whether bearing steps are used where `requested` (bearing_steps online, refine_bearing_steps in
+/// the refinement): they model the tracks' creep, so without one (track_creep_px 0) the sightings
+/// are tied to the anchor.
+inline bool useBearingSteps(bool requested, const WindowOptions& options) {
+  return requested && options.track_creep_px > 0.0;
+}
+
 }  // namespace ovo::estimator

@@ -104,7 +104,7 @@ RefineInfo refineKeyframes(const std::vector<Keyframe*>& keyframes,
                            const WindowOptions& options, const GroundPlaneOptions& ground_options) {
   WindowModel model = window_model;
   model.terrain_planes = model.terrain_planes && options.refine_ground;  // no ground: no terrain
-  model.bearing_steps = options.refine_bearing_steps && options.track_creep_px > 0.0;
+  model.bearing_steps = useBearingSteps(options.refine_bearing_steps, options);
   RefineInfo info;
   info.keyframes = static_cast<int>(keyframes.size());
   if (keyframes.size() < 2) return info;
