@@ -404,16 +404,16 @@ FrameEstimate WindowCore::processFrame(const VisualFrame& frame_in) {
   }
 
   // Prediction: gyro rotation, constant velocity (decaying after a long gap).
-  const double dt = toSeconds(frame.t_ns - last_t_);
-  SE3 T_pred = last_T_W_B_;
-  double rot_sigma = options_.rotation_prior_sigma_rad;
+  Prediction pred;
+  pred.dt = toSeconds(frame.t_ns - last_t_);
+  pred.T_W_B = last_T_W_B_;
+  pred.rot_sigma = options_.rotation_prior_sigma_rad;
   double rate_radps = 0.0;
-  bool have_rotation_prior = false;
   if (auto pi = preintegrate(last_t_, frame.t_ns, bias_)) {
-    T_pred.linear() = so3::orthonormalize(last_T_W_B_.linear() * pi->deltaR());
-    rot_sigma = std::sqrt(pi->covariance().trace() / 3.0 + rot_sigma * rot_sigma);
-    rate_radps = so3::angle(pi->deltaR()) / dt;
-    have_rotation_prior = pi->status() != factors::GyroPreintegration::Status::kNoData;
+    pred.T_W_B.linear() = so3::orthonormalize(last_T_W_B_.linear() * pi->deltaR());
+    pred.rot_sigma = std::sqrt(pi->covariance().trace() / 3.0 + pred.rot_sigma * pred.rot_sigma);
+    rate_radps = so3::angle(pi->deltaR()) / pred.dt;
+    pred.rotation_prior = pi->status() != factors::GyroPreintegration::Status::kNoData;
     if (pi->status() != factors::GyroPreintegration::Status::kOk) {
       if (!in_gap_) ++stats_.gyro_gaps;
       in_gap_ = true;
@@ -421,8 +421,8 @@ FrameEstimate WindowCore::processFrame(const VisualFrame& frame_in) {
       in_gap_ = false;
     }
   }
-  T_pred.translation() =
-      last_T_W_B_.translation() + velocity_W_ * coastSeconds(dt, options_.velocity_decay_per_s);
+  pred.T_W_B.translation() = last_T_W_B_.translation() +
+                             velocity_W_ * coastSeconds(pred.dt, options_.velocity_decay_per_s);
 
   // Flow to the previous frame (standstill detector).
   std::vector<double> flows;
@@ -451,134 +451,10 @@ FrameEstimate WindowCore::processFrame(const VisualFrame& frame_in) {
 
   // The first moving frame after still ones closes the standstill's zero-rate update.
   if (!standstill && still_bias_.inStreak()) endStandstill(frame.t_ns);
-  int ref_kf = -1;
   if (!standstill) still_since_.reset();
-  if (standstill) {
-    if (!still_since_) still_since_ = frame.t_ns;
-    e.T_W_B = last_T_W_B_;
-    // A robot coming to rest creeps on below the flow threshold: for standstill_settle_s the
-    // still frames are still placed against the landmarks, then the pose is held (tracks chained
-    // over still frames creep while the robot stands).
-    if (initialized_ && !map_.empty() &&
-        toSeconds(frame.t_ns - *still_since_) < options_.standstill_settle_s) {
-      std::vector<TrackId> ids;
-      std::size_t landmarks_seen = 0;
-      if (const auto ref =
-              refineAgainstMap(obs, T_pred, have_rotation_prior, rot_sigma, &ids, &landmarks_seen))
-        e.T_W_B = ref->T_W_B;
-    }
-    e.tracked = initialized_ || !reference_;
-    e.status = "standstill";
-    velocity_W_.setZero();
-    if (initialized_ && !map_.empty()) ref_kf = map_.keyframes.back()->id;
-    if (initialized_) still_reference_ = makeReference(frame, e.T_W_B);
-    // Zero-rate update: the raw gyro rotation of a still frame is bias * dt plus noise.
-    if (auto pi0 = preintegrate(last_t_, frame.t_ns, Vec3::Zero());
-        pi0 && pi0->status() == factors::GyroPreintegration::Status::kOk) {
-      still_bias_.add(frame.t_ns, so3::log(pi0->deltaR()), dt);
-      if (!initialized_)
-        if (auto z = still_bias_.estimate(options_.standstill_min_bias_s)) bias_ = z->bias_radps;
-    }
-    if (!initialized_) {
-      // Held before initialisation: the pose is known, and the two-view reference moves to
-      // the last still frame so that no translation is lost when the robot starts.
-      e.tracked = true;
-      if (canReference(frame.t_ns)) startReference(frame, e.T_W_B);
-      if (ground_chain_) ground_chain_->restart(frame, e.T_W_B);
-      scale_wait_since_.reset();  // waiting while still loses no motion: the wait restarts
-    }
-  } else if (!initialized_) {
-    if (!reference_) startReference(frame, T_pred);
-    velocity_W_ *= std::pow(options_.velocity_decay_per_s, dt);
-    SE3 T_ref = T_pred;
-    T_ref.linear() = rotationFromReference(frame, T_pred);
-    if (ground_chain_) {
-      bool measured = false;
-      T_ref = ground_chain_->step(frame, T_ref, &measured);
-      if (measured) velocity_W_ = ground_chain_->velocityW();
-    }
-    e.T_W_B = T_ref;
-    if (tryInitialize(frame, T_ref, &e)) {
-      ref_kf = map_.keyframes.back()->id;
-    } else {
-      e.tracked = false;
-      e.status = "initializing";
-      if (reference_) reference_->keepSightings(static_cast<int>(frames_.size()), frame);
-    }
-  } else {
-    // Shortly after a standstill, the frames' sightings of the still frame's tracks are kept
-    // for a restart from there.
-    if (still_reference_) {
-      if (toSeconds(frame.t_ns - still_reference_->t_ns) > kStillRestartS) {
-        still_reference_.reset();
-      } else {
-        still_reference_->keepSightings(static_cast<int>(frames_.size()), frame);
-      }
-    }
-    std::vector<TrackId> ids;
-    std::size_t landmarks_seen = 0;
-    const auto ref =
-        refineAgainstMap(obs, T_pred, have_rotation_prior, rot_sigma, &ids, &landmarks_seen);
-    if (ref) {
-      lost_frames_ = 0;
-      e.T_W_B = ref->T_W_B;
-      e.tracked = true;
-      const Vec3 v = (ref->T_W_B.translation() - last_T_W_B_.translation()) / dt;
-      velocity_W_ = 0.5 * velocity_W_ + 0.5 * v;
-      std::unordered_set<TrackId> outliers;
-      for (std::size_t i = 0; i < ids.size(); ++i)
-        if (!ref->inlier[i]) {
-          obs.erase(ids[i]);
-          outliers.insert(ids[i]);
-        }
-      const bool has_scan = use_lidar_ && scanAt(frame.t_ns) != nullptr;
-      if (isKeyframe(frame, e.T_W_B, has_scan)) {
-        std::vector<TrackObservation> inlier_obs;
-        inlier_obs.reserve(frame.observations.size());
-        for (const auto& o : frame.observations)
-          if (!outliers.count(o.track_id)) inlier_obs.push_back(o);
-        Keyframe* kf = addKeyframe(frame.t_ns, e.T_W_B, bias_, inlier_obs, &obs);
-        triangulateNewLandmarks(*kf);
-        for (auto& k : map_.keyframes) associateLidar(*k, true);
-        solveWindow();
-        if (rescaleToLidar()) {
-          for (auto& k : map_.keyframes) associateLidar(*k, true);
-          solveWindow();
-        }
-        marginalize();
-        e.T_W_B = map_.keyframes.back()->pose();
-        e.is_keyframe = true;
-      }
-      ref_kf = map_.keyframes.back()->id;
-    } else {
-      e.T_W_B = T_pred;
-      e.tracked = false;
-      e.status = landmarks_seen < static_cast<std::size_t>(options_.min_landmark_observations)
-                     ? "too_few_landmarks"
-                     : "refinement_failed";
-      velocity_W_ *= std::pow(options_.velocity_decay_per_s, dt);
-      if (lost_frames_++ == 0) ++stats_.tracking_losses;
-      ref_kf = map_.keyframes.back()->id;
-      const bool after_still =
-          still_reference_ && toSeconds(frame.t_ns - still_reference_->t_ns) <= kStillRestartS;
-      if (after_still) {
-        // The tracks crept while the robot stood (each still frame's sub-pixel error adds up
-        // along a track) and no longer fit the window's landmarks. The robot was still at the
-        // last still frame, so its pose is known: a new segment starts there, not at a guess.
-        note(
-            "tracks no longer fit the window after a standstill: restarted from the last still "
-            "frame");
-        resetWindow();
-        reference_ = std::move(still_reference_);
-        still_reference_.reset();
-        ref_kf = -1;
-      } else if (lost_frames_ >= options_.reinit_after_lost_frames) {
-        resetWindow();
-        startReference(frame, T_pred);
-        ref_kf = -1;
-      }
-    }
-  }
+  const int ref_kf = standstill      ? processStill(frame, pred, obs, e)
+                     : !initialized_ ? processBeforeInit(frame, pred, e)
+                                     : processTracked(frame, pred, obs, e);
 
   if (!allFinite(e.T_W_B)) {  // never a NaN pose
     e.T_W_B = last_T_W_B_;
@@ -605,10 +481,148 @@ FrameEstimate WindowCore::processFrame(const VisualFrame& frame_in) {
   return e;
 }
 
+int WindowCore::processStill(const VisualFrame& frame, const Prediction& pred,
+                             const std::unordered_map<TrackId, TrackObservation>& obs,
+                             FrameEstimate& e) {
+  int ref_kf = -1;
+  if (!still_since_) still_since_ = frame.t_ns;
+  e.T_W_B = last_T_W_B_;
+  // A robot coming to rest creeps on below the flow threshold: for standstill_settle_s the
+  // still frames are still placed against the landmarks, then the pose is held (tracks chained
+  // over still frames creep while the robot stands).
+  if (initialized_ && !map_.empty() &&
+      toSeconds(frame.t_ns - *still_since_) < options_.standstill_settle_s) {
+    std::vector<TrackId> ids;
+    std::size_t landmarks_seen = 0;
+    if (const auto ref = refineAgainstMap(obs, pred, &ids, &landmarks_seen)) e.T_W_B = ref->T_W_B;
+  }
+  e.tracked = initialized_ || !reference_;
+  e.status = "standstill";
+  velocity_W_.setZero();
+  if (initialized_ && !map_.empty()) ref_kf = map_.keyframes.back()->id;
+  if (initialized_) still_reference_ = makeReference(frame, e.T_W_B);
+  // Zero-rate update: the raw gyro rotation of a still frame is bias * dt plus noise.
+  if (auto pi0 = preintegrate(last_t_, frame.t_ns, Vec3::Zero());
+      pi0 && pi0->status() == factors::GyroPreintegration::Status::kOk) {
+    still_bias_.add(frame.t_ns, so3::log(pi0->deltaR()), pred.dt);
+    if (!initialized_)
+      if (auto z = still_bias_.estimate(options_.standstill_min_bias_s)) bias_ = z->bias_radps;
+  }
+  if (!initialized_) {
+    // Held before initialisation: the pose is known, and the two-view reference moves to
+    // the last still frame so that no translation is lost when the robot starts.
+    e.tracked = true;
+    if (canReference(frame.t_ns)) startReference(frame, e.T_W_B);
+    if (ground_chain_) ground_chain_->restart(frame, e.T_W_B);
+    scale_wait_since_.reset();  // waiting while still loses no motion: the wait restarts
+  }
+  return ref_kf;
+}
+
+int WindowCore::processBeforeInit(const VisualFrame& frame, const Prediction& pred,
+                                  FrameEstimate& e) {
+  int ref_kf = -1;
+  if (!reference_) startReference(frame, pred.T_W_B);
+  velocity_W_ *= std::pow(options_.velocity_decay_per_s, pred.dt);
+  SE3 T_ref = pred.T_W_B;
+  T_ref.linear() = rotationFromReference(frame, pred.T_W_B);
+  if (ground_chain_) {
+    bool measured = false;
+    T_ref = ground_chain_->step(frame, T_ref, &measured);
+    if (measured) velocity_W_ = ground_chain_->velocityW();
+  }
+  e.T_W_B = T_ref;
+  if (tryInitialize(frame, T_ref, &e)) {
+    ref_kf = map_.keyframes.back()->id;
+  } else {
+    e.tracked = false;
+    e.status = "initializing";
+    if (reference_) reference_->keepSightings(static_cast<int>(frames_.size()), frame);
+  }
+  return ref_kf;
+}
+
+int WindowCore::processTracked(const VisualFrame& frame, const Prediction& pred,
+                               std::unordered_map<TrackId, TrackObservation>& obs,
+                               FrameEstimate& e) {
+  int ref_kf = -1;
+  // Shortly after a standstill, the frames' sightings of the still frame's tracks are kept
+  // for a restart from there.
+  if (still_reference_) {
+    if (toSeconds(frame.t_ns - still_reference_->t_ns) > kStillRestartS) {
+      still_reference_.reset();
+    } else {
+      still_reference_->keepSightings(static_cast<int>(frames_.size()), frame);
+    }
+  }
+  std::vector<TrackId> ids;
+  std::size_t landmarks_seen = 0;
+  const auto ref = refineAgainstMap(obs, pred, &ids, &landmarks_seen);
+  if (ref) {
+    lost_frames_ = 0;
+    e.T_W_B = ref->T_W_B;
+    e.tracked = true;
+    const Vec3 v = (ref->T_W_B.translation() - last_T_W_B_.translation()) / pred.dt;
+    velocity_W_ = 0.5 * velocity_W_ + 0.5 * v;
+    std::unordered_set<TrackId> outliers;
+    for (std::size_t i = 0; i < ids.size(); ++i)
+      if (!ref->inlier[i]) {
+        obs.erase(ids[i]);
+        outliers.insert(ids[i]);
+      }
+    const bool has_scan = use_lidar_ && scanAt(frame.t_ns) != nullptr;
+    if (isKeyframe(frame, e.T_W_B, has_scan)) {
+      std::vector<TrackObservation> inlier_obs;
+      inlier_obs.reserve(frame.observations.size());
+      for (const auto& o : frame.observations)
+        if (!outliers.count(o.track_id)) inlier_obs.push_back(o);
+      Keyframe* kf = addKeyframe(frame.t_ns, e.T_W_B, bias_, inlier_obs, &obs);
+      triangulateNewLandmarks(*kf);
+      for (auto& k : map_.keyframes) associateLidar(*k, true);
+      solveWindow();
+      if (rescaleToLidar()) {
+        for (auto& k : map_.keyframes) associateLidar(*k, true);
+        solveWindow();
+      }
+      marginalize();
+      e.T_W_B = map_.keyframes.back()->pose();
+      e.is_keyframe = true;
+    }
+    ref_kf = map_.keyframes.back()->id;
+  } else {
+    e.T_W_B = pred.T_W_B;
+    e.tracked = false;
+    e.status = landmarks_seen < static_cast<std::size_t>(options_.min_landmark_observations)
+                   ? "too_few_landmarks"
+                   : "refinement_failed";
+    velocity_W_ *= std::pow(options_.velocity_decay_per_s, pred.dt);
+    if (lost_frames_++ == 0) ++stats_.tracking_losses;
+    ref_kf = map_.keyframes.back()->id;
+    const bool after_still =
+        still_reference_ && toSeconds(frame.t_ns - still_reference_->t_ns) <= kStillRestartS;
+    if (after_still) {
+      // The tracks crept while the robot stood (each still frame's sub-pixel error adds up
+      // along a track) and no longer fit the window's landmarks. The robot was still at the
+      // last still frame, so its pose is known: a new segment starts there, not at a guess.
+      note(
+          "tracks no longer fit the window after a standstill: restarted from the last still "
+          "frame");
+      resetWindow();
+      reference_ = std::move(still_reference_);
+      still_reference_.reset();
+      ref_kf = -1;
+    } else if (lost_frames_ >= options_.reinit_after_lost_frames) {
+      resetWindow();
+      startReference(frame, pred.T_W_B);
+      ref_kf = -1;
+    }
+  }
+  return ref_kf;
+}
+
 std::optional<PoseRefinement> WindowCore::refineAgainstMap(
-    const std::unordered_map<TrackId, TrackObservation>& obs, const SE3& T_pred,
-    bool rotation_prior, double rot_sigma, std::vector<TrackId>* ids,
-    std::size_t* landmarks_seen) const {
+    const std::unordered_map<TrackId, TrackObservation>& obs, const Prediction& pred,
+    std::vector<TrackId>* ids, std::size_t* landmarks_seen) const {
   std::vector<Vec3> points_W, bearings_C;
   ids->clear();
   for (const auto& [id, o] : obs) {
@@ -620,10 +634,10 @@ std::optional<PoseRefinement> WindowCore::refineAgainstMap(
   }
   *landmarks_seen = points_W.size();
   if (static_cast<int>(points_W.size()) < options_.min_landmark_observations) return std::nullopt;
-  auto ref =
-      refinePose(points_W, bearings_C, T_pred,
-                 rotation_prior ? std::optional<Mat3>(T_pred.linear()) : std::nullopt, rot_sigma,
-                 model_, options_.motion_only_iterations, options_.outlier_angle_deg * kDegToRad);
+  auto ref = refinePose(
+      points_W, bearings_C, pred.T_W_B,
+      pred.rotation_prior ? std::optional<Mat3>(pred.T_W_B.linear()) : std::nullopt, pred.rot_sigma,
+      model_, options_.motion_only_iterations, options_.outlier_angle_deg * kDegToRad);
   // Enough landmarks fit, and enough of those seen (tracks that crept far during a standstill
   // leave 5-10 % that fit by chance; a good frame fits 60-95 % of them, the first frames after a
   // stop on the simulated rows 22-45 %).

@@ -159,15 +159,30 @@ class WindowCore {
   /// With the LiDAR, frames with a scan are preferred: they need less parallax, and a frame
   /// without one whose successor is expected to bring a scan tolerates more track loss.
   bool isKeyframe(const VisualFrame& frame, const SE3& T_W_B, bool has_scan) const;
+  /// A frame's pose predicted from the last one: the gyro's rotation (a prior of rot_sigma when
+  /// the gyro gave one) and the constant velocity (decaying over long gaps); dt since the last
+  /// frame, s.
+  struct Prediction {
+    SE3 T_W_B = SE3::Identity();
+    double dt = 0.0;
+    double rot_sigma = 0.0;
+    bool rotation_prior = false;
+  };
+  /// processFrame's three cases once the standstill test is done: a still frame, a moving frame
+  /// before initialisation, a moving frame after it. Each fills e and returns the frame's
+  /// reference keyframe (-1: none).
+  int processStill(const VisualFrame& frame, const Prediction& pred,
+                   const std::unordered_map<TrackId, TrackObservation>& obs, FrameEstimate& e);
+  int processBeforeInit(const VisualFrame& frame, const Prediction& pred, FrameEstimate& e);
+  int processTracked(const VisualFrame& frame, const Prediction& pred,
+                     std::unordered_map<TrackId, TrackObservation>& obs, FrameEstimate& e);
   /// Motion-only refinement of a frame's pose against the window's landmarks it sees (obs),
-  /// started at T_pred, whose rotation is a prior of rot_sigma when rotation_prior. *ids: the
-  /// landmarks used, in the order of PoseRefinement::inlier; *landmarks_seen: their number.
-  /// nullopt unless the frame fits: min_landmark_observations inliers and min_inlier_fraction of
-  /// the landmarks seen.
+  /// started at the prediction. *ids: the landmarks used, in the order of
+  /// PoseRefinement::inlier; *landmarks_seen: their number. nullopt unless the frame fits:
+  /// min_landmark_observations inliers and min_inlier_fraction of the landmarks seen.
   std::optional<PoseRefinement> refineAgainstMap(
-      const std::unordered_map<TrackId, TrackObservation>& obs, const SE3& T_pred,
-      bool rotation_prior, double rot_sigma, std::vector<TrackId>* ids,
-      std::size_t* landmarks_seen) const;
+      const std::unordered_map<TrackId, TrackObservation>& obs, const Prediction& pred,
+      std::vector<TrackId>* ids, std::size_t* landmarks_seen) const;
   void note(const std::string& text);
   /// Adds a keyframe's LiDAR associations (as they stand when it leaves the window) to stats.
   static void countLidar(const Keyframe& kf, EstimatorStats& stats);
