@@ -451,7 +451,10 @@ FrameEstimate WindowCore::processFrame(const VisualFrame& frame_in) {
 
   // The first moving frame after still ones closes the standstill's zero-rate update.
   if (!standstill && still_bias_.inStreak()) endStandstill(frame.t_ns);
-  if (!standstill) still_since_.reset();
+  if (!standstill)
+    still_since_.reset();
+  else if (!still_since_)
+    still_since_ = frame.t_ns;
   const int ref_kf = standstill      ? processStill(frame, pred, obs, e)
                      : !initialized_ ? processBeforeInit(frame, pred, e)
                                      : processTracked(frame, pred, obs, e);
@@ -485,7 +488,6 @@ int WindowCore::processStill(const VisualFrame& frame, const Prediction& pred,
                              const std::unordered_map<TrackId, TrackObservation>& obs,
                              FrameEstimate& e) {
   int ref_kf = -1;
-  if (!still_since_) still_since_ = frame.t_ns;
   e.T_W_B = last_T_W_B_;
   // A robot coming to rest creeps on below the flow threshold: for standstill_settle_s the
   // still frames are still placed against the landmarks, then the pose is held (tracks chained
