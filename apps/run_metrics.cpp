@@ -90,6 +90,8 @@ nlohmann::json computeRunMetrics(const Trajectory& estimate, const Trajectory& g
       if (const auto ate = eval::computeAte(a, eval::AlignMode::kSE3)) {
         m["ate_rmse_m"] = ate->trans_m.rmse;
         if (length > 0) m["ate_pct"] = 100.0 * ate->trans_m.rmse / length;
+        m["ate_body_rmse_m"] = {
+            {"x", ate->body_rmse_m.x()}, {"y", ate->body_rmse_m.y()}, {"z", ate->body_rmse_m.z()}};
       }
       if (const auto ate = eval::computeAte(a, eval::AlignMode::kSim3))
         m["ate_sim3_rmse_m"] = ate->trans_m.rmse;

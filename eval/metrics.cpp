@@ -106,11 +106,15 @@ std::optional<AteResult> computeAte(const Associated& pairs, AlignMode mode) {
   out.mode = mode;
   out.alignment = *alignment;
   out.errors_m.reserve(pairs.size());
+  Vec3 body_sq = Vec3::Zero();
   for (std::size_t i = 0; i < pairs.size(); ++i) {
     const Vec3 p_est = alignment->apply(Vec3(pairs.est[i].T_W_B.translation()));
-    out.errors_m.push_back((p_est - pairs.ref[i].T_W_B.translation()).norm());
+    const Vec3 e_W = p_est - pairs.ref[i].T_W_B.translation();
+    out.errors_m.push_back(e_W.norm());
+    body_sq += (pairs.ref[i].T_W_B.linear().transpose() * e_W).cwiseAbs2();
   }
   out.trans_m = *computeStats(out.errors_m);
+  out.body_rmse_m = (body_sq / static_cast<double>(pairs.size())).cwiseSqrt();
   return out;
 }
 

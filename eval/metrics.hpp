@@ -43,6 +43,10 @@ struct AteResult {
   Similarity alignment;
   std::vector<double> errors_m;
   Stats trans_m;
+  /// The same errors S p_est - p_ref resolved in the reference pose's body axes, RMSE per axis
+  /// (ovo's body: x forward, y left, z up, so along-track, lateral, vertical). The squares add
+  /// up to trans_m.rmse^2.
+  Vec3 body_rmse_m = Vec3::Zero();
 };
 /// nullopt when the sizes differ, the trajectories are empty or the alignment is degenerate.
 std::optional<AteResult> computeAte(const Associated& pairs, AlignMode mode);

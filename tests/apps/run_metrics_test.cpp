@@ -45,6 +45,35 @@ TEST(RunMetrics, TranslationDirectionSpansFramesShorterThanTheMinimumMove) {
   EXPECT_NEAR(m["rpe_rot_deg_per_frame_median"].get<double>(), 0.0, 1e-9);
 }
 
+TEST(RunMetrics, AteIsSplitAlongTrackLateralAndVertical) {
+  // An L: 40 frames along x, a left turn in place, 40 frames along y. The estimate bows 1 cm to
+  // the side of the drive (two periods a leg) and is right along it and in height: the error is
+  // in the body's y on both legs, though it is world y on the first and world x on the second.
+  Trajectory gt;
+  for (int i = 0; i < 80; ++i) {
+    SE3 T = SE3::Identity();
+    if (i < 40) {
+      T.translation() = Vec3(0.04 * i, 0.0, 0.0);
+    } else {
+      T.linear() = Eigen::AngleAxisd(M_PI / 2, Vec3::UnitZ()).toRotationMatrix();
+      T.translation() = Vec3(0.04 * 39, 0.04 * (i - 39), 0.0);
+    }
+    gt.push_back({static_cast<Timestamp>(i) * 50'000'000, T});
+  }
+  Trajectory est = gt;
+  for (std::size_t i = 0; i < est.size(); ++i)
+    est[i].T_W_B.translation() +=
+        gt[i].T_W_B.linear() * Vec3(0.0, 0.01 * std::sin(M_PI * static_cast<double>(i) / 10), 0.0);
+  const nlohmann::json m = computeRunMetrics(est, gt, {}, {}, 0.05);
+  ASSERT_TRUE(m.contains("ate_body_rmse_m"));
+  const nlohmann::json& axes = m["ate_body_rmse_m"];
+  const double ate = m["ate_rmse_m"].get<double>();
+  EXPECT_GT(ate, 0.005);
+  EXPECT_GT(axes["y"].get<double>(), 0.95 * ate);
+  EXPECT_LT(axes["x"].get<double>(), 0.2 * ate);
+  EXPECT_LT(axes["z"].get<double>(), 0.2 * ate);
+}
+
 TEST(RunMetrics, AnEstimateThatStandsStillGetsTheWorstDirectionError) {
   const Trajectory gt = straightDrive(20, 0.04);
   Trajectory est = gt;
