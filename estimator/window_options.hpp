@@ -41,8 +41,11 @@ struct WindowOptions {
   double pixel_sigma = -1.0;          // image noise, px; < 0: the rig's value
   double bearing_huber_sigmas = 2.0;  // Huber loss threshold, in units of the bearing sigma
   double track_creep_px = 0.2;        // a track's random walk, px per sqrt(frame) (measured on the
-                                // simulated rows: 0.38 px after 1 frame, 0.9 after 10, 1.8 after
-                                // 40): added to the bearing sigma between anchor and observation
+                                // simulated rows without the frontend's Lucas-Kanade step: 0.38 px
+                                // after 1 frame, 0.9 after 10, 1.8 after 40; the step halves it,
+                                // but 0.1 measured no better: 21 runs 0.147 against 0.146 m with
+                                // the 7x7 patch): added to the bearing sigma between anchor and
+                                // observation
   bool bearing_steps = true;     // a track's sightings after its first are tied to the previous
                                  // sighting (BearingStepFactor), not to the anchor: the steps of
                                  // a random walk are independent, its errors against the anchor
