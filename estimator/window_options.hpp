@@ -43,14 +43,16 @@ struct WindowOptions {
   double track_creep_px = 0.2;        // a track's random walk, px per sqrt(frame) (measured on the
                                 // simulated rows without the frontend's Lucas-Kanade step: 0.38 px
                                 // after 1 frame, 0.9 after 10, 1.8 after 40; the step halves it,
-                                // but 0.1 measured no better: 21 runs 0.147 against 0.146 m with
-                                // the 7x7 patch): added to the bearing sigma between anchor and
-                                // observation
+                                // but smaller values measured no better: 21 runs 0.130 m at 0.15
+                                // against 0.124 m with the 9x9 patch, 0.147 m at 0.1 against
+                                // 0.146 m with the 7x7): added to the bearing sigma between anchor
+                                // and observation
   bool bearing_steps = true;     // a track's sightings after its first are tied to the previous
                                  // sighting (BearingStepFactor), not to the anchor: the steps of
                                  // a random walk are independent, its errors against the anchor
                                  // are not (no effect with track_creep_px 0)
-  double track_white_px = 0.16;  // ... the sighting noise of a step's two ends, px (each)
+  double track_white_px = 0.16;  // ... the sighting noise of a step's two ends, px (each; 0.12
+                                 // with the Lucas-Kanade step: 21 runs 0.125 against 0.124 m)
   double lidar_range_sigma_m = -1.0;          // LiDAR range noise, m; < 0: the rig's value
   double lidar_association_sigma_m = 0.0;     // added in quadrature to the range noise: a
                                               // landmark off the scan plane, on foliage, m
