@@ -19,6 +19,7 @@
 #include "frontend/features.hpp"
 #include "frontend/frontend.hpp"
 #include "frontend/matcher.hpp"
+#include "frontend/track_refine.hpp"
 #include "sim/simulation.hpp"
 
 namespace {
@@ -176,6 +177,33 @@ void runMatch(benchmark::State& state, const std::optional<FramePair>& pair, boo
   state.counters["refine_ms"] = refine_ms / iters;
 }
 
+// The Lucas-Kanade step (frontend/track_refine) of every match of a pair on one thread, from the
+// match's own pixels: time_per_step is the cost of one track step (s), refined the share it moves.
+void runTrackRefine(benchmark::State& state, const std::optional<FramePair>& pair) {
+  if (!pair) {
+    state.SkipWithError("frame pair not available");
+    return;
+  }
+  const frontend::FrontendOptions options = benchOptions();
+  frontend::FeatureFrame a, b;
+  frontend::extractFeatures(pair->a, options.detector, cv::Mat(), &a);
+  frontend::extractFeatures(pair->b, options.detector, cv::Mat(), &b);
+  const auto matches = frontend::Matcher(options.matcher).match(a, b, nullptr, nullptr);
+  const frontend::TrackStepRefiner refiner(options.track_refine);
+  std::size_t refined = 0;
+  for (auto _ : state) {
+    refined = 0;
+    for (const frontend::Match& m : matches)
+      refined += refiner.refine(pair->a, m.px_prev, pair->b, m.px_cur).has_value();
+  }
+  const double steps = static_cast<double>(matches.size());
+  state.counters["steps"] = steps;
+  state.counters["refined"] = static_cast<double>(refined) / steps;
+  state.counters["time_per_step"] =
+      benchmark::Counter(steps * static_cast<double>(state.iterations()),
+                         benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
+}
+
 // Delaunay flow filter on n uniformly random points of a 640x480 image, 5 % planted outliers.
 void runDelaunay(benchmark::State& state) {
   const auto n = static_cast<std::size_t>(state.range(0));
@@ -223,6 +251,10 @@ const bool registered = [] {
                                     [](benchmark::State& s) { runMatch(s, ocamPair(), true); }));
   unit(benchmark::RegisterBenchmark("BM_Match/full/kitti1226x370",
                                     [](benchmark::State& s) { runMatch(s, kittiPair(), false); }));
+  unit(benchmark::RegisterBenchmark("BM_TrackRefine/ocam640x480",
+                                    [](benchmark::State& s) { runTrackRefine(s, ocamPair()); }));
+  unit(benchmark::RegisterBenchmark("BM_TrackRefine/kitti1226x370",
+                                    [](benchmark::State& s) { runTrackRefine(s, kittiPair()); }));
   benchmark::RegisterBenchmark("BM_Delaunay/support", runDelaunay)
       ->Arg(1000)
       ->Arg(5000)

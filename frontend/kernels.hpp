@@ -1,5 +1,6 @@
 // Hot per-pixel and per-descriptor kernels of the libviso2-style frontend (DESIGN section 4), with
-// plain-pointer interfaces so that kernels_simd.cpp can be compiled for the native ISA.
+// plain-pointer interfaces so that kernels_simd.cpp and track_refine_simd.cpp (the Lucas-Kanade
+// step) can be compiled for the native ISA.
 // Images are row-major with a row stride in elements; outputs have the input's width and height.
 #pragma once
 
@@ -116,5 +117,28 @@ inline int binIndex(int x, std::uint64_t bin_recip) {
 void searchWindow(const std::uint8_t* query, const SearchGrid& grid, int cls, int u0, int u1,
                   int v0, int v1, int* best_index, std::uint32_t* best_cost,
                   std::uint32_t* second_cost);
+
+/// Patches of the Lucas-Kanade step (track_refine.hpp) are stored as rows of kLkStride floats;
+/// patch sides up to kLkStride - 1 pixels (half widths up to kLkMaxHalf).
+constexpr int kLkStride = 16;
+constexpr int kLkMaxHalf = 7;
+
+/// An 8-bit grey image (row-major, row stride in bytes).
+struct GreyImage {
+  const std::uint8_t* data = nullptr;
+  int width = 0, height = 0, stride = 0;
+};
+
+/// The Lucas-Kanade step of one track (TrackStepRefiner::refine): translation-only, inverse
+/// compositional, brightness-offset compensated alignment of the (2 half + 1)^2 patch of `prev`
+/// around (x_prev, y_prev) with `cur`, starting at (*x, *y). `weight`: 2 half + 1 rows of kLkStride
+/// Gaussian weights, zero past column 2 half; weight_sum their sum. True, with *x, *y moved, when
+/// the step converges (last update under 0.03 px) within max_iterations and max_shift of the
+/// start; false (*x, *y unspecified) when a patch leaves an image, the weighted gradient is below
+/// min_gradient along some axis, or it does not converge.
+bool alignPatchTranslation(const GreyImage& prev, double x_prev, double y_prev,
+                           const GreyImage& cur, const float* weight, float weight_sum, int half,
+                           int max_iterations, double max_shift, double min_gradient, double* x,
+                           double* y);
 
 }  // namespace ovo::frontend::kernels

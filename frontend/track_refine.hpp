@@ -8,11 +8,12 @@
 // scenarios, default and other seeds) the window's ATE sum is 0.161 m without the step, 0.146 m
 // with a 7x7 patch (sigma 1.5), 0.124 m with 9x9 (sigma 2), 0.118 m with 11x11 (sigma 2.5) and
 // 0.124 m with 13x13 (sigma 3). On KITTI 07 (first 160 frames) the online window goes from 1.32 to
-// 0.65 % (11x11: 0.70 %). The 9x9 patch costs 3-4 ms of a frame on two cores (ovo run's
-// frontend_ms_median on vineyard_row, 13.7 -> 16.9 ms; 11x11: 17.9 ms), and is the better of the
-// two on the real data. Measured, not kept: a right-hand side without the patch's mean (the
-// weighted gradients sum to 0) saved no measurable time; 3 iterations instead of 5 saved 0.5 ms
-// and cost vineyard_row 6.4 -> 6.8 mm.
+// 0.65 % (11x11: 0.70 %); 9x9 is the better of the two on the real data.
+// Cost (BM_TrackRefine, one thread, every match of the fisheye pair): 0.45 us a step, 3.2 ms for
+// the pair's 7197 matches; 0.90 us with the first, scalar loops, which vectorise in
+// track_refine_simd.cpp (whole patch rows of zero-padded weights, one accumulator per column).
+// Measured, not kept: a right-hand side without the patch's mean saved no time; 3 iterations
+// instead of 5 saved a little and cost vineyard_row 6.4 -> 6.8 mm.
 //
 // On a rendered row (ground tracks against the simulator's geometry, TrackDrift tests) the median
 // error one frame after a track's start falls from 0.22 to 0.16 px and ten frames after from 0.78
@@ -43,9 +44,10 @@ struct TrackRefineOptions {
   bool operator==(const TrackRefineOptions&) const = default;
 };
 
-/// Translation-only Lucas-Kanade of one track step. The Gaussian weights of the patch are
-/// computed once here (they were 49 exp() calls per step, most of its cost); refine() is const and
-/// safe to call from several threads.
+/// Translation-only Lucas-Kanade of one track step (the loops: kernels::alignPatchTranslation, in
+/// track_refine_simd.cpp). The Gaussian weights of the patch are computed once here (they were 49
+/// exp() calls per step, most of its cost); refine() is const and safe to call from several
+/// threads.
 class TrackStepRefiner {
  public:
   explicit TrackStepRefiner(const TrackRefineOptions& options = {});
@@ -59,7 +61,7 @@ class TrackStepRefiner {
  private:
   TrackRefineOptions options_;
   int half_ = 3;
-  std::vector<float> weight_;  // (2 half + 1)^2, row-major
+  std::vector<float> weight_;  // 2 half + 1 rows of kernels::kLkStride, zero past the patch
   float weight_sum_ = 0.f;
 };
 

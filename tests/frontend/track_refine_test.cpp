@@ -31,7 +31,8 @@ double texture(double x, double y) {
 TEST(TrackRefine, RecoversASubPixelShiftFromAnOffStart) {
   const Vec2 shift(0.37, -0.62);
   const cv::Mat prev = render(texture);
-  const cv::Mat cur = render([&](double u, double v) { return texture(u - shift.x(), v - shift.y()); });
+  const cv::Mat cur =
+      render([&](double u, double v) { return texture(u - shift.x(), v - shift.y()); });
   const TrackStepRefiner refiner;
   for (const Vec2& x_prev : {Vec2(40.0, 30.0), Vec2(52.3, 41.7), Vec2(30.5, 50.25)}) {
     const Vec2 truth = x_prev + shift;
@@ -53,6 +54,28 @@ TEST(TrackRefine, IgnoresABrightnessOffset) {
   const auto x = TrackStepRefiner().refine(prev, x_prev, cur, x_prev);
   ASSERT_TRUE(x.has_value());
   EXPECT_NEAR((*x - truth).norm(), 0.0, 0.06);
+}
+
+TEST(TrackRefine, GivesTheSameStepNextToTheRightEdge) {
+  // Away from the right edge the patch rows are sampled whole, past the patch (zero weight); next
+  // to it only the patch's own columns are read. Same images, cut just right of the patch.
+  const Vec2 shift(0.45, 0.2);
+  const cv::Mat prev = render(texture);
+  const cv::Mat cur =
+      render([&](double u, double v) { return texture(u - shift.x(), v - shift.y()); });
+  const TrackStepRefiner refiner;
+  const Vec2 x_prev(60.3, 40.6);
+  const auto inside = refiner.refine(prev, x_prev, cur, x_prev + Vec2(0.1, 0.1));
+  const cv::Range cols(0, 67);  // the 11x11 template of x_prev reaches column 66
+  const auto at_edge =
+      refiner.refine(prev.colRange(cols), x_prev, cur.colRange(cols), x_prev + Vec2(0.1, 0.1));
+  ASSERT_TRUE(inside.has_value());
+  ASSERT_TRUE(at_edge.has_value());
+  EXPECT_NEAR((*inside - x_prev - shift).norm(), 0.0, 0.05);
+  EXPECT_EQ(inside->x(), at_edge->x());
+  EXPECT_EQ(inside->y(), at_edge->y());
+  // One column less and the template leaves the image.
+  EXPECT_FALSE(refiner.refine(prev.colRange(0, 66), x_prev, cur.colRange(0, 66), x_prev));
 }
 
 TEST(TrackRefine, RefusesFlatPatchesEdgesBordersAndFarMoves) {
