@@ -109,18 +109,78 @@ class StageQueue {
   std::exception_ptr error_;
 };
 
+// Decodes the dataset's images in order on its own thread, up to kPrefetchImages ahead of the
+// frontend stage, which then does not wait for the PNG decoder (9 % of a run's CPU on the
+// simulated vineyard_row, about 3.5 ms an image, on the frontend's path before).
+constexpr std::size_t kPrefetchImages = 4;
+
+class ImagePrefetcher {
+ public:
+  explicit ImagePrefetcher(const io::Dataset& data) : data_(data), thread_([this] { run(); }) {}
+  ImagePrefetcher(const ImagePrefetcher&) = delete;
+  ImagePrefetcher& operator=(const ImagePrefetcher&) = delete;
+  ~ImagePrefetcher() {
+    {
+      std::lock_guard lock(mutex_);
+      stop_ = true;
+    }
+    changed_.notify_all();
+    thread_.join();
+  }
+
+  // The next image in order; a decoding error (naming the file) is rethrown when its image is due.
+  cv::Mat next() {
+    std::unique_lock lock(mutex_);
+    changed_.wait(lock, [&] { return !images_.empty() || error_; });
+    if (images_.empty()) std::rethrow_exception(error_);
+    cv::Mat image = std::move(images_.front());
+    images_.pop_front();
+    changed_.notify_all();
+    return image;
+  }
+
+ private:
+  void run() {
+    for (std::size_t i = 0; i < data_.images.size(); ++i) {
+      cv::Mat image;
+      try {
+        image = io::loadDatasetImage(data_, i);
+      } catch (...) {
+        std::lock_guard lock(mutex_);
+        error_ = std::current_exception();
+        changed_.notify_all();
+        return;
+      }
+      std::unique_lock lock(mutex_);
+      changed_.wait(lock, [&] { return stop_ || images_.size() < kPrefetchImages; });
+      if (stop_) return;
+      images_.push_back(std::move(image));
+      changed_.notify_all();
+    }
+  }
+
+  const io::Dataset& data_;
+  std::mutex mutex_;
+  std::condition_variable changed_;
+  std::deque<cv::Mat> images_;
+  std::exception_ptr error_;
+  bool stop_ = false;
+  std::thread thread_;  // last: starts once the members above exist
+};
+
 void runPipelined(const io::Dataset& data, estimator::Estimator& est, const ProgressFn& progress,
                   const FrameFn& on_frame, OfflineRunResult& result) {
   const int total = static_cast<int>(data.images.size());
   StageQueue queue;
   std::size_t frontend_imu = 0;  // the frontend thread's cursor
+  ImagePrefetcher images(data);  // outlives the frontend thread
   std::thread frontend([&] {
     try {
       std::size_t no_scan = data.scans.size();
       FrontendStage stage{est};
       for (int i = 0; i < total; ++i) {
         const auto& entry = data.images[i];
-        cv::Mat grey = io::loadDatasetImage(data, i);  // a bad image is an error naming the file
+        cv::Mat grey = images.next();  // a bad image is an error naming the file
         estimator::feedUntilImage(entry.t_ns, data.imu, frontend_imu, data.scans, no_scan, stage);
         // track(i) after update(i - 1 - lead): the frontend runs up to `lead` frames ahead.
         if (!queue.waitForUpdates(i - estimator::kFrontendLeadFrames)) return;

@@ -1,10 +1,10 @@
 // Feeds a dataset to an estimator in time order (gyro and scans before the image they precede),
-// deterministic, and collects per-frame estimates and timings. By default the frontend stage
-// (image decoding and Estimator::track) runs on a second thread, up to
-// estimator::kFrontendLeadFrames images ahead of the estimator stage (Estimator::update), so it
-// goes on through a keyframe's solve; track(k) starts only after update(k-1-lead) is done, so the
-// poses are exactly those of the stages run in sequence (the frontend's gyro prior uses the bias
-// published after frame k-1-lead, estimator::FrontendGyro).
+// deterministic, and collects per-frame estimates and timings. By default images are decoded on a
+// thread of their own, a few ahead, and the frontend stage (Estimator::track) runs on a second
+// thread, up to estimator::kFrontendLeadFrames images ahead of the estimator stage
+// (Estimator::update), so it goes on through a keyframe's solve; track(k) starts only after
+// update(k-1-lead) is done, so the poses are exactly those of the stages run in sequence (the
+// frontend's gyro prior uses the bias published after frame k-1-lead, estimator::FrontendGyro).
 #pragma once
 
 #include <functional>

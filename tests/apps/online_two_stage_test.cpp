@@ -257,12 +257,15 @@ TEST(OfflinePipelineErrors, ACorruptImageStopsBothStagesAndNamesTheFile) {
   std::ofstream(bad) << "not an image";
   data.images[40].path = bad;
   auto est = make("window", data);
+  int frames_done = 0;  // the images before it are decoded ahead, and all go through first
   try {
-    runOffline(data, *est);
+    runOffline(data, *est, {},
+               [&](const estimator::FrameEstimate&, const cv::Mat&) { ++frames_done; });
     ADD_FAILURE() << "no error for a corrupt image";
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find("corrupt.png"), std::string::npos) << e.what();
   }
+  EXPECT_EQ(frames_done, 40);
 }
 
 }  // namespace
