@@ -45,8 +45,9 @@ inline float sampleAt(const Sampler& s, const std::uint8_t* a, const std::uint8_
 }
 
 // Row r of the grid into out[0, width): samples in columns below `side`; past it, samples too
-// where the image has them (their weights are zero), else 0. Kept in registers by the callers'
-// loops when inlined (a row stored as narrow vectors and loaded as one wide vector stalls).
+// where the image has them (their weights are zero), else 0. For the template only: the
+// iterations sample inside their sums (a row stored as narrow vectors and loaded again as one wide
+// vector stalled on the store forwarding).
 template <int width>
 inline void sampleRow(const Sampler& s, int r, int side, float* out) {
   const std::uint8_t* a = s.top + static_cast<std::ptrdiff_t>(r) * s.stride;
