@@ -44,18 +44,19 @@ inline float sampleAt(const Sampler& s, const std::uint8_t* a, const std::uint8_
   return s.w00 * a[c] + s.w01 * a[c + 1] + s.w10 * b[c] + s.w11 * b[c + 1];
 }
 
-// Row r of the grid into out[0, width): samples in columns below `side`; past it, samples too
-// where the image has them (their weights are zero), else 0. For the template only: the
-// iterations sample inside their sums (a row stored as narrow vectors and loaded again as one wide
-// vector stalled on the store forwarding).
-template <int width>
-inline void sampleRow(const Sampler& s, int r, int side, float* out) {
+// Calls f(c, sample) for the columns c of row r of the grid in [0, width): samples in columns
+// below `side`; past it, samples too where the image has them (their weights are zero), else 0.
+// Whole rows where the image allows (always but at its right edge), so that the loop vectorises.
+// f takes each sample as it comes, so the iterations' sums keep it in registers (a row stored as
+// narrow vectors and loaded again as one wide vector stalled on the store forwarding).
+template <int width, typename F>
+inline void forEachSample(const Sampler& s, int r, int side, F&& f) {
   const std::uint8_t* a = s.top + static_cast<std::ptrdiff_t>(r) * s.stride;
   const std::uint8_t* b = a + s.stride;
   if (width < s.readable) {
-    for (int c = 0; c < width; ++c) out[c] = sampleAt(s, a, b, c);
+    for (int c = 0; c < width; ++c) f(c, sampleAt(s, a, b, c));
   } else {
-    for (int c = 0; c < width; ++c) out[c] = c < side ? sampleAt(s, a, b, c) : 0.f;
+    for (int c = 0; c < width; ++c) f(c, c < side ? sampleAt(s, a, b, c) : 0.f);
   }
 }
 
@@ -79,8 +80,10 @@ bool alignPatchTranslation(const GreyImage& prev, double x_prev, double y_prev,
   alignas(64) float tpl[(S + 1) * kTemplateStride];
   Sampler ts;
   if (!makeSampler(prev, x_prev - half - 1, y_prev - half - 1, n + 2, &ts)) return false;
-  for (int r = 0; r < n + 2; ++r)
-    sampleRow<kTemplateStride>(ts, r, n + 2, tpl + r * kTemplateStride);
+  for (int r = 0; r < n + 2; ++r) {
+    float* row = tpl + r * kTemplateStride;
+    forEachSample<kTemplateStride>(ts, r, n + 2, [row](int c, float v) { row[c] = v; });
+  }
 
   // Its central-difference gradients on the inner grid, and their weighted means.
   alignas(64) float t0[S * S], gx[S * S], gy[S * S];
@@ -138,30 +141,16 @@ bool alignPatchTranslation(const GreyImage& prev, double x_prev, double y_prev,
     // Right-hand side sum wgx ((patch - patch mean) - (template - its mean)), expanded so that
     // one pass over the patch gives it.
     alignas(64) float ap[S] = {}, apx[S] = {}, apy[S] = {};
-    const auto accumulate = [&](auto sample) {
-      for (int r = 0; r < n; ++r) {
-        const std::uint8_t* a = s.top + static_cast<std::ptrdiff_t>(r) * s.stride;
-        const std::uint8_t* b = a + s.stride;
-        const float* wr = w + r * S;
-        const float* gxr = wgx + r * S;
-        const float* gyr = wgy + r * S;
-        for (int c = 0; c < S; ++c) {
-          const float v = sample(a, b, c);
-          ap[c] += wr[c] * v;
-          apx[c] += gxr[c] * v;
-          apy[c] += gyr[c] * v;
-        }
-      }
-    };
-    // Whole rows of S samples where the image has them (always but at its right edge).
-    if (S < s.readable)
-      accumulate([&](const std::uint8_t* a, const std::uint8_t* b, int c) {
-        return sampleAt(s, a, b, c);
+    for (int r = 0; r < n; ++r) {
+      const float* wr = w + r * S;
+      const float* gxr = wgx + r * S;
+      const float* gyr = wgy + r * S;
+      forEachSample<S>(s, r, n, [&](int c, float v) {
+        ap[c] += wr[c] * v;
+        apx[c] += gxr[c] * v;
+        apy[c] += gyr[c] * v;
       });
-    else
-      accumulate([&](const std::uint8_t* a, const std::uint8_t* b, int c) {
-        return c < n ? sampleAt(s, a, b, c) : 0.f;
-      });
+    }
     const double p_mean = laneSum(ap) / weight_sum;
     const double bx = laneSum(apx) - p_mean * sgx - cx, by = laneSum(apy) - p_mean * sgy - cy;
     // Inverse compositional step: the template moved by d matches, so the point moves by -d.
