@@ -102,7 +102,7 @@ YAML::Node loadYaml(const fs::path& file) {
   } catch (const YAML::Exception& e) {
     failAt(file.string(), e.mark.line + 1, "invalid YAML: {}", e.msg);
   }
-  rejectDuplicateKeys(doc, file.string());
+  checkYamlDocument(doc, file.string());
   return doc;
 }
 

@@ -179,7 +179,7 @@ Config Config::fromString(const std::string& yaml, const std::string& source_nam
     YAML::Node root = YAML::Load(yaml);
     if (root.IsNull()) root = YAML::Node(YAML::NodeType::Map);
     if (!root.IsMap()) fail("{}: expected a YAML mapping (key: value lines) at the top", source_name);
-    rejectDuplicateKeys(root, source_name);
+    checkYamlDocument(root, source_name);
     c.impl_->root = root;
   } catch (const YAML::Exception& e) {
     fail("{}:{}: invalid YAML: {}", source_name, e.mark.line + 1, e.msg);
@@ -199,6 +199,7 @@ void Config::applyOverride(const std::string& assignment) {
   } catch (const YAML::Exception& e) {
     fail("--set {}: value '{}' is not valid YAML: {}", key, value, e.msg);
   }
+  checkYamlDocument(value_node, "--set " + key);
   const auto parts = splitKey(key);
   YAML::Node node = impl_->root;
   for (std::size_t i = 0; i + 1 < parts.size(); ++i) {

@@ -5,10 +5,20 @@
 #include "common/error.hpp"
 
 namespace ovo {
+namespace {
 
-void rejectDuplicateKeys(const YAML::Node& node, const std::string& source) {
+void check(const YAML::Node& node, const std::string& source, int depth, long& nodes) {
+  if (++nodes > kYamlMaxNodes)
+    failAt(source, node.Mark().line + 1,
+           "the YAML expands to more than {} values (aliases of aliases?); expected a plain "
+           "document",
+           kYamlMaxNodes);
+  if (depth > kYamlMaxDepth)
+    failAt(source, node.Mark().line + 1,
+           "the YAML nests more than {} levels deep (an alias inside the node it names?)",
+           kYamlMaxDepth);
   if (node.IsSequence()) {
-    for (const auto& item : node) rejectDuplicateKeys(item, source);
+    for (const auto& item : node) check(item, source, depth + 1, nodes);
     return;
   }
   if (!node.IsMap()) return;
@@ -20,9 +30,18 @@ void rejectDuplicateKeys(const YAML::Node& node, const std::string& source) {
       if (!fresh)
         failAt(source, line, "key '{}' given twice (first on line {}); remove one", it->first,
                it->second);
+    } else {
+      check(kv.first, source, depth + 1, nodes);  // a complex key can hold an alias too
     }
-    rejectDuplicateKeys(kv.second, source);
+    check(kv.second, source, depth + 1, nodes);
   }
+}
+
+}  // namespace
+
+void checkYamlDocument(const YAML::Node& node, const std::string& source) {
+  long nodes = 0;
+  check(node, source, 0, nodes);
 }
 
 }  // namespace ovo

@@ -1,5 +1,6 @@
 #include "common/config.hpp"
 
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include <fstream>
@@ -102,6 +103,29 @@ TEST(Config, KeyGivenTwiceIsAnErrorNamingBothLines) {
   // The same name in two sections is two keys.
   const Config c = Config::fromString("a:\n  x: 1\nb:\n  x: 2\n", "c.yaml");
   EXPECT_EQ(c.get<int>("b.x", 0), 2);
+}
+
+TEST(Config, SelfReferencingAndExplodingAliasesAreErrors) {
+  // An alias inside the node it names is endless: walking it overflowed the stack (SIGSEGV).
+  EXPECT_CONTAINS(test::errorOf([] { Config::fromString("seed: 1\nx: &a [*a]\n", "c.yaml"); }),
+                  "c.yaml:2: the YAML nests more than 64 levels deep");
+  EXPECT_CONTAINS(test::errorOf([] {
+                    Config c = Config::fromString("seed: 1\n", "c.yaml");
+                    c.applyOverride("x=&a [*a]");
+                  }),
+                  "--set x:1: the YAML nests more than 64 levels deep");
+  // Aliases of aliases, ten times a line: 10^8 values from 9 lines (took 36 s to reject).
+  std::string laughs = "l0: &l0 [1, 1, 1, 1, 1, 1, 1, 1, 1, 1]\n";
+  for (int i = 1; i <= 8; ++i) {
+    laughs += fmt::format("l{}: &l{} [", i, i);
+    for (int k = 0; k < 10; ++k) laughs += fmt::format("{}*l{}", k ? ", " : "", i - 1);
+    laughs += "]\n";
+  }
+  EXPECT_CONTAINS(test::errorOf([&] { Config::fromString(laughs, "c.yaml"); }),
+                  "the YAML expands to more than 100000 values");
+  // Aliases that stay small are still fine.
+  const Config c = Config::fromString("a: &v [1, 2]\nb: *v\n", "c.yaml");
+  EXPECT_EQ(c.get<std::vector<double>>("b", {}).size(), 2u);
 }
 
 TEST(Config, LocationNamesTheKeysLineOrItsOverride) {
