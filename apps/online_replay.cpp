@@ -8,6 +8,19 @@
 
 namespace ovo::app {
 
+ReplaySpan replaySpan(const io::Dataset& data) {
+  if (!data.images.empty()) return {data.images.front().t_ns, data.images.back().t_ns};
+  ReplaySpan span{std::numeric_limits<Timestamp>::max(), std::numeric_limits<Timestamp>::min()};
+  auto cover = [&](Timestamp first, Timestamp last) {
+    span.begin_ns = std::min(span.begin_ns, first);
+    span.end_ns = std::max(span.end_ns, last);
+  };
+  if (!data.imu.empty()) cover(data.imu.front().t_ns, data.imu.back().t_ns);
+  if (!data.scans.empty()) cover(data.scans.front().t_ns, data.scans.back().t_ns);
+  if (span.begin_ns > span.end_ns) return {};
+  return span;
+}
+
 RealtimeRunResult runRealtime(const io::Dataset& data, estimator::Estimator& est,
                               const RealtimeOptions& options,
                               const OnlinePipeline::OutputCallback& on_output,
@@ -26,10 +39,7 @@ RealtimeRunResult runRealtime(const io::Dataset& data, estimator::Estimator& est
   const std::size_t n_images = data.images.size();
   std::size_t next_image = 0, next_imu = 0, next_scan = 0;
   auto timeOf = [&](std::size_t i, std::size_t n, auto&& get) { return i < n ? get(i) : kNever; };
-  Timestamp t0 = kNever;
-  if (n_images) t0 = std::min(t0, data.images.front().t_ns);
-  if (!data.imu.empty()) t0 = std::min(t0, data.imu.front().t_ns);
-  if (!data.scans.empty()) t0 = std::min(t0, data.scans.front().t_ns);
+  const ReplaySpan span = replaySpan(data);
 
   cv::Mat prefetched;  // the next image, decoded ahead of its time
   if (n_images) prefetched = io::loadDatasetImage(data, 0);
@@ -37,8 +47,8 @@ RealtimeRunResult runRealtime(const io::Dataset& data, estimator::Estimator& est
   pipeline.start();
   auto sleepUntilSensorTime = [&](Timestamp t_ns) {
     const auto target =
-        start + std::chrono::duration_cast<Clock::duration>(
-                    std::chrono::duration<double>(toSeconds(t_ns - t0) / options.rate));
+        start + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(
+                    toSeconds(span.clamp(t_ns) - span.begin_ns) / options.rate));
     std::this_thread::sleep_until(target);
     return target;
   };

@@ -3,6 +3,7 @@
 // estimator sees what it would see live: frames dropped when it falls behind, real latency.
 #pragma once
 
+#include <algorithm>
 #include <functional>
 #include <vector>
 
@@ -23,6 +24,17 @@ struct RealtimeRunResult {
   double wall_s = 0.0;             // first measurement handed in -> pipeline stopped
   double replay_lag_ms_max = 0.0;  // worst lateness of an image hand-over (decoding, scheduling)
 };
+
+/// The sensor times the replay clock runs over: from the first camera frame to the last (without
+/// frames, the first to the last measurement of any sensor). Measurements outside it are handed
+/// over at once, before the first frame or after the last: a stray early or late stamp (a
+/// driver's first gyro sample stamped 0 in an epoch-stamped recording) would otherwise make the
+/// replay sleep for the whole gap, decades.
+struct ReplaySpan {
+  Timestamp begin_ns = 0, end_ns = 0;
+  Timestamp clamp(Timestamp t_ns) const { return std::clamp(t_ns, begin_ns, end_ns); }
+};
+ReplaySpan replaySpan(const io::Dataset& data);
 
 /// Replays `data` into an OnlinePipeline driving `est` on the calling thread (the replay thread;
 /// the pipeline adds its frontend and estimator threads). on_output runs on the estimator thread
