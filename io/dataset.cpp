@@ -40,6 +40,12 @@ SE3 rigidFrom(const Eigen::Matrix4d& M, const std::string& where, const std::str
         "{}: key '{}': expected a rigid transform (orthonormal rotation with determinant +1, "
         "last row 0 0 0 1)",
         where, key);
+  // A sensor further from the body origin than any robot is long: the translation was typed in
+  // another unit (mm), and the run would go on with poses off by that factor.
+  constexpr double kMaxOffsetM = 10.0;
+  if (M.topRightCorner<3, 1>().stableNorm() > kMaxOffsetM)
+    fail("{}: key '{}': translation {:.4g} m from the body origin; expected metres (at most {} m)",
+         where, key, M.topRightCorner<3, 1>().stableNorm(), kMaxOffsetM);
   SE3 T = SE3::Identity();
   T.matrix() = M;
   return T;

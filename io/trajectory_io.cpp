@@ -54,6 +54,19 @@ void checkPosition(const TextReader& in, const Vec3& p) {
             p.x(), p.y(), p.z(), kMaxPositionM);
 }
 
+// KITTI files hold the rotation's 9 numbers, printed to 6-9 digits: rounding leaves them
+// orthonormal to about 1e-6, a scaled, zero or mirrored matrix is far off.
+constexpr double kRotationTolerance = 1e-3;
+
+void checkRotation(const TextReader& in, const Mat3& R) {
+  const double off = (R.transpose() * R - Mat3::Identity()).norm();
+  if (!(off <= kRotationTolerance) || R.determinant() < 0.0)
+    in.fail(
+        "the 3x3 part is not a rotation (|R^T R - I| = {:.3g}, det {:.3g}; expected an "
+        "orthonormal matrix with determinant +1)",
+        off, R.determinant());
+}
+
 SE3 poseFromQuaternion(const TextReader& in, const Vec3& p, double qw, double qx, double qy,
                        double qz) {
   checkPosition(in, p);
@@ -111,6 +124,7 @@ Trajectory readKitti(const std::filesystem::path& file, bool* has_time) {
       for (int c = 0; c < 4; ++c)
         M(r, c) = in.number(tok[first + 4 * r + c], fmt::format("element ({}, {})", r, c));
     checkPosition(in, M.block<3, 1>(0, 3));
+    checkRotation(in, M.topLeftCorner<3, 3>());
     pose.T_W_B.matrix() = M;
     checkOrder(in, trajectory, pose.t_ns);
     trajectory.push_back(pose);

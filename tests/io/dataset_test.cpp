@@ -285,6 +285,10 @@ TEST(Dataset, BadInputGivesAnErrorNamingFileAndLine) {
       {"rig_bad_value", "rig.yaml", "gyro: {rate_hz: -5}\n", "gyro.rate_hz"},
       {"rig_not_rigid", "rig.yaml", "T_B_C: [2, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1]\n",
        "key 'T_B_C': expected a rigid transform"},
+      // In millimetres: ran on with scale errors of thousands of percent (1e300: NaN metrics).
+      {"rig_translation_mm", "rig.yaml",
+       "T_B_C: [1, 0, 0, 350, 0, 1, 0, 0, 0, 0, 1, 700, 0, 0, 0, 1]\n",
+       "key 'T_B_C': translation 782.6 m from the body origin; expected metres (at most 10 m)"},
       {"rig_short_matrix", "rig.yaml", "T_B_L: [1, 0, 0]\n", "T_B_L"},
       {"calib_corrupt", "cam0/sensor.yaml", "camera_model: [unclosed\n", "cam0/sensor.yaml"},
       {"calib_incomplete", "cam0/sensor.yaml", "camera_model: pinhole\nresolution: [64, 48]\n",

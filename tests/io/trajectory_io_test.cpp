@@ -148,6 +148,16 @@ TEST(TrajectoryIo, BadInputNamesFileLineAndWhatWasExpected) {
       {"kitti_nan", TrajectoryFormat::kKitti, "1 0 0 0 0 1 0 0 0 0 1 nan\n", "element (2, 3)", 1},
       {"kitti_far", TrajectoryFormat::kKitti, "1 0 0 0 0 1 0 -2e9 0 0 1 0\n",
        "beyond any trajectory", 1},
+      // A rotation scaled, zeroed, mirrored or with one element corrupt gave NaN RPE in eval.
+      {"kitti_scaled_rotation", TrajectoryFormat::kKitti,
+       "1 0 0 0 0 1 0 0 0 0 1 0\n"
+       "2 0 0 0 0 2 0 0 0 0 2 0\n",
+       "the 3x3 part is not a rotation", 2},
+      {"kitti_zero_rotation", TrajectoryFormat::kKitti, "0 0 0 0 0 0 0 0 0 0 0 0\n",
+       "the 3x3 part is not a rotation", 1},
+      {"kitti_mirror", TrajectoryFormat::kKitti, "-1 0 0 0 0 1 0 0 0 0 1 0\n", "det -1", 1},
+      {"kitti_huge_element", TrajectoryFormat::kKitti, "5 1e300 0 0 0 0 1 0 0 0 0 1 0\n",
+       "expected an orthonormal matrix", 1},
       {"tum_far", TrajectoryFormat::kTum, "0 0 0 0 0 0 0 1\n1 0 0 1e300 0 0 0 1\n",
        "expected coordinates within 1e+09 m", 2},
       {"euroc_columns", TrajectoryFormat::kEurocCsv,
