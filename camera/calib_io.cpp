@@ -18,13 +18,17 @@ namespace ovo::camera {
 namespace fs = std::filesystem;
 namespace {
 
+constexpr std::string_view kUtf8Bom = "\xEF\xBB\xBF";
+
 std::string readText(const fs::path& file, const char* what) {
   if (!fs::exists(file)) fail("{}: {} file not found", file.string(), what);
   std::ifstream in(file, std::ios::binary);
   if (!in) fail("{}: cannot open {} file", file.string(), what);
   std::stringstream text;
   text << in.rdbuf();
-  return text.str();
+  std::string out = text.str();
+  if (out.starts_with(kUtf8Bom)) out.erase(0, kUtf8Bom.size());  // an editor's byte-order mark
+  return out;
 }
 
 // ---- OCamCalib calib_results.txt -------------------------------------------------------------
@@ -238,6 +242,7 @@ bool looksLikeOcam(const fs::path& file) {
   std::ifstream in(file);
   std::string first;
   std::getline(in, first);
+  if (first.starts_with(kUtf8Bom)) first.erase(0, kUtf8Bom.size());
   return first.rfind("#polynomial", 0) == 0;
 }
 

@@ -124,6 +124,24 @@ TEST(OcamCalibFile, WriteReadRoundTripKeepsEveryValue) {
   }
 }
 
+TEST(OcamCalibFile, AByteOrderMarkAndWindowsLineEndsAreRead) {
+  // Saved by a Windows editor: "calib_results.txt:1: '\xEF\xBB\xBF#polynomial' is not a number".
+  const std::filesystem::path original = test::sourcePath("configs/cameras/romovi_ocam.txt");
+  std::string text = "\xEF\xBB\xBF";
+  for (char ch : slurp(original)) {
+    if (ch == '\n') text += '\r';
+    text += ch;
+  }
+  const auto copy = test::tempDir() / "calib_results.txt";
+  test::writeTextFile(copy, text);
+  const OcamParams a = readOcamCalib(original).params(), b = readOcamCalib(copy).params();
+  EXPECT_EQ(a.ss, b.ss);
+  EXPECT_EQ(a.invpol, b.invpol);
+  EXPECT_EQ(a.center_row, b.center_row);
+  EXPECT_EQ(a.c, b.c);
+  EXPECT_TRUE(std::holds_alternative<OcamCamera>(loadCamera(copy)));
+}
+
 TEST(OcamCalibFile, FullPrecisionValuesSurviveWriteAndRead) {
   OcamParams p;
   p.ss = {-300.123456789012, 0.0, 1.23456789012345e-3, -1.1e-6, 4.4e-9};
