@@ -98,6 +98,10 @@ int runRun(const RunArgs& args) {
                args.dataset, data.images.size(), data.imu.size(), data.scans.size(),
                camera::modelName(setup.camera));
   for (const auto& note : setup_notes) spdlog::info("{}", note);
+  for (auto& note : io::clockOverlapNotes(data, groundtruth)) {
+    spdlog::warn("{}", note);
+    setup_notes.push_back(std::move(note));
+  }
 
   std::unique_ptr<Viewer> viewer;
   if (args.viewer || !args.viewer_snapshot.empty()) {

@@ -407,4 +407,24 @@ cv::Mat loadDatasetImage(const Dataset& ds, std::size_t index) {
   return image;
 }
 
+std::vector<std::string> clockOverlapNotes(const Dataset& data, const Trajectory& groundtruth) {
+  std::vector<std::string> notes;
+  if (data.images.empty()) return notes;
+  const Timestamp first = data.images.front().t_ns, last = data.images.back().t_ns;
+  auto check = [&](const char* what, std::size_t n, Timestamp a, Timestamp b) {
+    if (n == 0 || (b >= first && a <= last)) return;
+    notes.push_back(fmt::format(
+        "{}: its {} stamps ({:.3f} .. {:.3f} s) do not overlap the camera's ({:.3f} .. {:.3f} s), "
+        "so it is not used; expected the camera's clock",
+        what, n, toSeconds(a), toSeconds(b), toSeconds(first), toSeconds(last)));
+  };
+  if (!data.imu.empty())
+    check("gyro", data.imu.size(), data.imu.front().t_ns, data.imu.back().t_ns);
+  if (!data.scans.empty())
+    check("LiDAR", data.scans.size(), data.scans.front().t_ns, data.scans.back().t_ns);
+  if (!groundtruth.empty())
+    check("ground truth", groundtruth.size(), groundtruth.front().t_ns, groundtruth.back().t_ns);
+  return notes;
+}
+
 }  // namespace ovo::io

@@ -87,4 +87,9 @@ SE3 cameraExtrinsics(const RigInfo& rig, const std::optional<SE3>& T_B_C_calib,
 /// Reads rig.yaml (unknown keys, bad values and non-rigid transforms are errors naming the key).
 RigInfo readRigYaml(const std::filesystem::path& file);
 
+/// One note per sensor of `data` (gyro, LiDAR) and for `groundtruth` whose stamps do not overlap
+/// the camera frames' span: it is on another clock (or in another unit) and would go unused
+/// without a word (the ground truth leaving every accuracy metric out). None without images.
+std::vector<std::string> clockOverlapNotes(const Dataset& data, const Trajectory& groundtruth);
+
 }  // namespace ovo::io

@@ -381,5 +381,32 @@ TEST(Dataset, BrokenKittiFolders) {
   EXPECT_CONTAINS(errorOf([&] { loadDataset(root); }), "000000.png: cannot decode the image");
 }
 
+TEST(Dataset, SensorsOnAnotherClockAreNamed) {
+  Dataset d;
+  for (Timestamp t : {1'000'000'000, 1'050'000'000, 2'000'000'000})
+    d.images.push_back({t, "x.png"});
+  ImuSample g;
+  for (Timestamp t : {1'000'000, 2'000'000}) {  // stamped in ms: 1000 and 2000 -> 1 and 2 ms
+    g.t_ns = t;
+    d.imu.push_back(g);
+  }
+  LidarScan scan;
+  scan.t_ns = 1'500'000'000;  // inside the camera's span
+  d.scans = {scan};
+  Trajectory gt(2);
+  gt[0].t_ns = 1'999'000'000;  // overlaps at the end
+  gt[1].t_ns = 3'000'000'000;
+  auto notes = clockOverlapNotes(d, gt);
+  ASSERT_EQ(notes.size(), 1u);
+  EXPECT_CONTAINS(notes[0],
+                  "gyro: its 2 stamps (0.001 .. 0.002 s) do not overlap the camera's "
+                  "(1.000 .. 2.000 s), so it is not used");
+  gt[0].t_ns = 2'001'000'000;  // starts after the last frame
+  notes = clockOverlapNotes(d, gt);
+  ASSERT_EQ(notes.size(), 2u);
+  EXPECT_CONTAINS(notes[1], "ground truth: its 2 stamps");
+  EXPECT_TRUE(clockOverlapNotes(Dataset{}, gt).empty());
+}
+
 }  // namespace
 }  // namespace ovo::io
