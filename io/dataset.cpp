@@ -277,9 +277,10 @@ Dataset loadKitti(const fs::path& root) {
   for (const auto& e : fs::directory_iterator(root / "image_0")) {
     if (!e.is_regular_file() || e.path().extension() != ".png") continue;
     const std::string stem = e.path().stem().string();
-    if (stem.empty() ||
+    if (stem.empty() || stem.size() > 9 ||  // 9 digits: 1e9 frames, and stoul cannot overflow
         !std::all_of(stem.begin(), stem.end(), [](char c) { return c >= '0' && c <= '9'; }))
-      fail("{}: expected a frame number as the file name (e.g. 000042.png)", e.path().string());
+      fail("{}: expected a frame number of at most 9 digits as the file name (e.g. 000042.png)",
+           e.path().string());
     const std::size_t index = std::stoul(stem);
     if (index >= times.size())
       fail("{}: frame {} has no time stamp ({} has {} rows)", e.path().string(), index,

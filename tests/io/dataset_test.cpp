@@ -370,6 +370,11 @@ TEST(Dataset, BrokenKittiFolders) {
   test::writeTextFile(root / "times.txt", "0.0\n");
   EXPECT_CONTAINS(errorOf([&] { loadDataset(root); }), "frame 1 has no time stamp");
   test::writeTextFile(root / "times.txt", "0.0\n0.1\n");
+  // A number too long for stoul was an "internal error: stoul".
+  test::writeTextFile(root / "image_0" / "99999999999999999999999.png", "x");
+  EXPECT_CONTAINS(errorOf([&] { loadDataset(root); }),
+                  "99999999999999999999999.png: expected a frame number of at most 9 digits");
+  fs::remove(root / "image_0" / "99999999999999999999999.png");
   test::writeTextFile(root / "poses.txt", "1 0 0 0 0 1 0 0 0 0 1 0\n1 0 0 0 0 1 0 0 0 0 1\n");
   EXPECT_CONTAINS(errorOf([&] { loadDataset(root); }), "poses.txt:2: expected 12 values");
   test::writeTextFile(root / "poses.txt", "1 0 0 0 0 1 0 0 0 0 1 0\n1 0 0 0 0 1 0 0 0 0 1 0.5\n");
