@@ -12,13 +12,12 @@
 
 #include "common/error.hpp"
 #include "common/so3.hpp"
+#include "common/text.hpp"
 #include "common/yaml_keys.hpp"
 
 namespace ovo::camera {
 namespace fs = std::filesystem;
 namespace {
-
-constexpr std::string_view kUtf8Bom = "\xEF\xBB\xBF";
 
 std::string readText(const fs::path& file, const char* what) {
   if (!fs::exists(file)) fail("{}: {} file not found", file.string(), what);
@@ -27,7 +26,7 @@ std::string readText(const fs::path& file, const char* what) {
   std::stringstream text;
   text << in.rdbuf();
   std::string out = text.str();
-  if (out.starts_with(kUtf8Bom)) out.erase(0, kUtf8Bom.size());  // an editor's byte-order mark
+  eraseUtf8Bom(out);
   return out;
 }
 
@@ -242,7 +241,7 @@ bool looksLikeOcam(const fs::path& file) {
   std::ifstream in(file);
   std::string first;
   std::getline(in, first);
-  if (first.starts_with(kUtf8Bom)) first.erase(0, kUtf8Bom.size());
+  eraseUtf8Bom(first);
   return first.rfind("#polynomial", 0) == 0;
 }
 

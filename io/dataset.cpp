@@ -43,9 +43,10 @@ SE3 rigidFrom(const Eigen::Matrix4d& M, const std::string& where, const std::str
   // A sensor further from the body origin than any robot is long: the translation was typed in
   // another unit (mm), and the run would go on with poses off by that factor.
   constexpr double kMaxOffsetM = 10.0;
-  if (M.topRightCorner<3, 1>().stableNorm() > kMaxOffsetM)
+  const double offset_m = M.topRightCorner<3, 1>().stableNorm();
+  if (offset_m > kMaxOffsetM)
     fail("{}: key '{}': translation {:.4g} m from the body origin; expected metres (at most {} m)",
-         where, key, M.topRightCorner<3, 1>().stableNorm(), kMaxOffsetM);
+         where, key, offset_m, kMaxOffsetM);
   SE3 T = SE3::Identity();
   T.matrix() = M;
   return T;
@@ -413,7 +414,7 @@ std::vector<std::string> clockOverlapNotes(const Dataset& data, const Trajectory
   if (data.images.empty()) return notes;
   const Timestamp first = data.images.front().t_ns, last = data.images.back().t_ns;
   auto check = [&](const char* what, std::size_t n, Timestamp a, Timestamp b) {
-    if (n == 0 || (b >= first && a <= last)) return;
+    if (b >= first && a <= last) return;
     notes.push_back(fmt::format(
         "{}: its {} stamps ({:.3f} .. {:.3f} s) do not overlap the camera's ({:.3f} .. {:.3f} s), "
         "so it is not used; expected the camera's clock",

@@ -8,6 +8,8 @@
 #include <cstdlib>
 #include <system_error>
 
+#include "common/text.hpp"
+
 namespace ovo::io {
 
 TextReader::TextReader(const std::filesystem::path& file, std::string_view what)
@@ -22,8 +24,7 @@ bool TextReader::next(std::vector<std::string_view>& tokens) {
   while (std::getline(in_, line_)) {
     ++line_number_;
     if (!line_.empty() && line_.back() == '\r') line_.pop_back();
-    // A UTF-8 byte-order mark (files saved by some Windows editors) is not part of the data.
-    if (line_number_ == 1 && line_.starts_with("\xEF\xBB\xBF")) line_.erase(0, 3);
+    if (line_number_ == 1) eraseUtf8Bom(line_);
     std::size_t first = line_.find_first_not_of(" \t");
     if (first == std::string::npos || line_[first] == '#') continue;
     tokens.clear();
