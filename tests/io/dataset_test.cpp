@@ -391,7 +391,7 @@ TEST(Dataset, SensorsOnAnotherClockAreNamed) {
   for (Timestamp t : {1'000'000'000, 1'050'000'000, 2'000'000'000})
     d.images.push_back({t, "x.png"});
   ImuSample g;
-  for (Timestamp t : {1'000'000, 2'000'000}) {  // stamped in ms: 1000 and 2000 -> 1 and 2 ms
+  for (Timestamp t : {1'000'000, 2'000'000}) {  // another clock: 1 and 2 ms after its own start
     g.t_ns = t;
     d.imu.push_back(g);
   }
