@@ -19,7 +19,8 @@ namespace ovo::factors {
 /// which stays finite at rho -> 0 (a point at infinity). nullopt when h vanishes.
 struct PredictedBearing {
   Vec3 u;
-  Eigen::Matrix<double, 3, 13> J;  // set only when asked for
+  // Zero unless asked for: the optional's move copies it, and must not read indeterminate values.
+  Eigen::Matrix<double, 3, 13> J = Eigen::Matrix<double, 3, 13>::Zero();
 };
 std::optional<PredictedBearing> predictBearing(const Vec3& bearing_Ca, const Mat3& R_B_C,
                                                const Vec3& t_B_C, const double* q_W_Ba,
