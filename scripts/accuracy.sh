@@ -1,0 +1,129 @@
+#!/usr/bin/env bash
+# The accuracy table of issue #7: every simulated scenario at its default seed and at the other
+# seeds the sessions have measured (21 runs), each estimator on the same dataset, one row a run:
+# ATE mm / final yaw deg / scale % / estimator_ms_median / realtime factor, and kf's ATE over the
+# window's. Datasets are simulated once into WORK/data and reused; runs go to WORK/runs.
+#
+#   scripts/accuracy.sh [--work DIR] [--jobs N] [--estimators "vo kf window refine"]
+#                       [--runs "vineyard_row:1 steep_slope:5 ..."] [--set key=value ...]
+#
+# --runs takes scenario:seed pairs (seed "default" = the scenario file's own); --set is passed to
+# every `ovo run` (to measure an option over all runs; the datasets stay the same). The realtime
+# factors are only comparable between runs made with the same --jobs: runs in parallel share the
+# cores. Needs build/ovo (scripts/setup.sh build) and jq.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+ROOT=$(pwd)
+OVO=${OVO_BIN:-$ROOT/build/ovo}
+WORK=$ROOT/out/accuracy
+JOBS=2
+ESTIMATORS="vo kf window refine"
+RUNS="vineyard_row:default headland_turn:default standstill:default steep_slope:default
+pure_rotation:default vineyard_row_pinhole:default vineyard_row:7 headland_turn:7
+vineyard_row:11 steep_slope:11 standstill:11 pure_rotation:11 vineyard_row:3 headland_turn:3
+vineyard_row:5 headland_turn:5 steep_slope:5 vineyard_row:13 headland_turn:13 steep_slope:13
+pure_rotation:13"
+SETS=()
+
+usage() { sed -n '2,13p' "$0" | sed 's/^# \{0,1\}//' >&2; exit 2; }
+while (($#)); do
+  case "$1" in
+    --work) WORK=$2; shift 2 ;;
+    --jobs) JOBS=$2; shift 2 ;;
+    --estimators) ESTIMATORS=$2; shift 2 ;;
+    --runs) RUNS=$2; shift 2 ;;
+    --set) SETS+=(--set "$2"); shift 2 ;;
+    -h | --help) usage ;;
+    *) echo "accuracy.sh: unknown argument '$1'" >&2; usage ;;
+  esac
+done
+[[ $JOBS =~ ^[1-9][0-9]*$ ]] || { echo "accuracy.sh: --jobs takes a whole number >= 1, got '$JOBS'" >&2; exit 2; }
+for e in $ESTIMATORS; do
+  case "$e" in vo | kf | window | refine) ;; *)
+    echo "accuracy.sh: --estimators takes vo, kf, window and refine, got '$e'" >&2; exit 2 ;;
+  esac
+done
+[ -x "$OVO" ] || { echo "accuracy.sh: no $OVO: build first (scripts/setup.sh build)" >&2; exit 2; }
+if ! command -v jq >/dev/null; then
+  echo "accuracy.sh: installing jq"
+  SUDO=""; [ "$(id -u)" -ne 0 ] && SUDO="sudo"
+  $SUDO apt-get install -y -qq jq >/dev/null || { $SUDO apt-get update -qq && $SUDO apt-get install -y -qq jq >/dev/null; }
+fi
+export POCL_CACHE_DIR=${POCL_CACHE_DIR:-${XDG_CACHE_HOME:-$HOME/.cache}/ovo-pocl}
+mkdir -p "$WORK/data" "$WORK/runs" "$POCL_CACHE_DIR"
+
+# A run's name: the scenario, and _s<seed> unless it is the scenario file's own.
+name_of() { local s=${1%%:*} seed=${1##*:}; [ "$seed" = default ] && echo "$s" || echo "${s}_s$seed"; }
+
+jobs_list=$(mktemp)
+trap 'rm -f "$jobs_list"' EXIT
+for r in $RUNS; do
+  scenario=${r%%:*} seed=${r##*:}
+  [ -f "configs/sim/$scenario.yaml" ] || { echo "accuracy.sh: no configs/sim/$scenario.yaml (from --runs '$r')" >&2; exit 2; }
+  [[ $seed = default || $seed =~ ^[0-9]+$ ]] || { echo "accuracy.sh: seed '$seed' in '$r' is not a number or 'default'" >&2; exit 2; }
+  name=$(name_of "$r")
+  if [ ! -f "$WORK/data/$name/rig.yaml" ]; then
+    seed_args=(); [ "$seed" = default ] || seed_args=(--seed "$seed")
+    echo "simulating $name" >&2
+    "$OVO" simulate --config "configs/sim/$scenario.yaml" --out "$WORK/data/$name" --overwrite "${seed_args[@]}" >/dev/null
+  fi
+  for e in $ESTIMATORS; do echo "$name $e" >>"$jobs_list"; done
+done
+
+run_one() {
+  local name=$1 e=$2 args=()
+  case "$e" in refine) args=(--estimator window --refine full) ;; *) args=(--estimator "$e") ;; esac
+  if ! "$OVO" run --dataset "$WORK/data/$name" --out "$WORK/runs/$name/$e" "${args[@]}" "${SETS[@]}" \
+      >"$WORK/runs/$name.$e.log" 2>&1; then
+    echo "accuracy.sh: ovo run failed on $name ($e): see $WORK/runs/$name.$e.log" >&2
+    return 1
+  fi
+}
+export -f run_one
+export OVO WORK
+# Each job re-creates the --set array from its quoted form (arrays do not cross processes).
+SETS_STR=""
+((${#SETS[@]})) && SETS_STR=$(printf '%q ' "${SETS[@]}")
+export SETS_STR
+failed=0
+xargs -P "$JOBS" -L 1 bash -c 'eval "SETS=($SETS_STR)"; run_one "$0" "$1"' <"$jobs_list" || failed=1
+
+cell() {  # ATE mm / yaw deg / scale % / est ms / RT from one metrics.json
+  [ -f "$1" ] || { echo "failed"; return; }
+  jq -r '[(.ate_rmse_m // null | if . == null then "-" else (. * 1000 | . * 10 | round / 10 | tostring) end),
+           (.final_yaw_err_deg // null | if . == null then "-" else (. * 100 | round / 100 | tostring) end),
+           (.scale_err_pct // null | if . == null then "-" else (. * 100 | round / 100 | tostring) end),
+           (.timing.estimator_ms_median * 10 | round / 10 | tostring),
+           (.timing.realtime_factor * 100 | round / 100 | tostring)] | join(" / ")' "$1"
+}
+ate() { [ -f "$1" ] && jq -r '.ate_rmse_m // empty' "$1"; return 0; }
+
+{
+  header="| run |"; rule="|---|"
+  for e in $ESTIMATORS; do header+=" $e: ATE mm / yaw deg / scale % / est ms / RT |"; rule+="---|"; done
+  both=false; [[ " $ESTIMATORS " == *" kf "* && " $ESTIMATORS " == *" window "* ]] && both=true
+  $both && { header+=" kf / window |"; rule+="---|"; }
+  echo "$header"; echo "$rule"
+  declare -A sum; wins=0; count=0
+  for r in $RUNS; do
+    name=$(name_of "$r"); row="| $name |"
+    for e in $ESTIMATORS; do
+      m="$WORK/runs/$name/$e/metrics.json"
+      row+=" $(cell "$m") |"
+      a=$(ate "$m"); sum[$e]=$(echo "${sum[$e]:-0} ${a:-0}" | awk '{print $1 + $2}')
+    done
+    if $both; then
+      k=$(ate "$WORK/runs/$name/kf/metrics.json"); w=$(ate "$WORK/runs/$name/window/metrics.json")
+      ratio=$(awk -v k="$k" -v w="$w" 'BEGIN { if (k == "" || w == "" || w <= 0) print "-"; else printf "%.2f", k / w }')
+      row+=" ${ratio}x |"; count=$((count + 1))
+      awk -v r="$ratio" 'BEGIN { exit !(r + 0 >= 2) }' && wins=$((wins + 1))
+    fi
+    echo "$row"
+  done
+  row="| sum of ATE |"
+  for e in $ESTIMATORS; do row+=" $(awk -v s="${sum[$e]}" 'BEGIN { printf "%.4f m", s }') |"; done
+  $both && row+=" $wins of $count at 2x |"
+  echo "$row"
+} | tee "$WORK/table.md"
+echo "table in $WORK/table.md" >&2
+if ((failed)); then echo "accuracy.sh: some runs failed (their cells say so; logs in $WORK/runs)" >&2; exit 1; fi
