@@ -6,11 +6,14 @@
 #
 #   scripts/accuracy.sh [--work DIR] [--jobs N] [--estimators "vo kf window refine"]
 #                       [--runs "vineyard_row:1 steep_slope:5 ..."] [--set key=value ...]
+#                       [--sim-set key=value ...]
 #
 # --runs takes scenario:seed pairs (seed "default" = the scenario file's own); --set is passed to
-# every `ovo run` (to measure an option over all runs; the datasets stay the same). The realtime
-# factors are only comparable between runs made with the same --jobs: runs in parallel share the
-# cores. Needs build/ovo (scripts/setup.sh build) and jq.
+# every `ovo run` (to measure an option over all runs; the datasets stay the same), --sim-set to
+# every `ovo simulate` (to measure the scenarios changed, e.g. trajectory.start_hold_s=3; a WORK's
+# datasets are made once, so each --sim-set list needs a --work of its own). The realtime factors
+# are only comparable between runs made with the same --jobs: runs in parallel share the cores.
+# Needs build/ovo (scripts/setup.sh build) and jq.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 ROOT=$(pwd)
@@ -24,8 +27,9 @@ vineyard_row:11 steep_slope:11 standstill:11 pure_rotation:11 vineyard_row:3 hea
 vineyard_row:5 headland_turn:5 steep_slope:5 vineyard_row:13 headland_turn:13 steep_slope:13
 pure_rotation:13"
 SETS=()
+SIM_SETS=()
 
-usage() { sed -n '2,13p' "$0" | sed 's/^# \{0,1\}//' >&2; exit 2; }
+usage() { sed -n '2,/^set -euo/p' "$0" | grep '^#' | sed 's/^# \{0,1\}//' >&2; exit 2; }
 while (($#)); do
   case "$1" in
     --work) WORK=$2; shift 2 ;;
@@ -33,6 +37,7 @@ while (($#)); do
     --estimators) ESTIMATORS=$2; shift 2 ;;
     --runs) RUNS=$2; shift 2 ;;
     --set) SETS+=(--set "$2"); shift 2 ;;
+    --sim-set) SIM_SETS+=(--set "$2"); shift 2 ;;
     -h | --help) usage ;;
     *) echo "accuracy.sh: unknown argument '$1'" >&2; usage ;;
   esac
@@ -51,6 +56,15 @@ if ! command -v jq >/dev/null; then
 fi
 export POCL_CACHE_DIR=${POCL_CACHE_DIR:-${XDG_CACHE_HOME:-$HOME/.cache}/ovo-pocl}
 mkdir -p "$WORK/data" "$WORK/runs" "$POCL_CACHE_DIR"
+# The datasets of a WORK are made with one --sim-set list: refuse to mix them.
+# (Datasets without the marker were made before it: with none.)
+sim_sets="${SIM_SETS[*]:-none}"
+made_with=$(cat "$WORK/data/sim_sets" 2>/dev/null || { compgen -G "$WORK/data/*/rig.yaml" >/dev/null && echo none; } || true)
+if [ -n "$made_with" ] && [ "$made_with" != "$sim_sets" ]; then
+  echo "accuracy.sh: $WORK/data was simulated with --sim-set '$made_with', not '$sim_sets': give another --work" >&2
+  exit 2
+fi
+echo "$sim_sets" >"$WORK/data/sim_sets"
 
 # A run's name: the scenario, and _s<seed> unless it is the scenario file's own.
 name_of() { local s=${1%%:*} seed=${1##*:}; [ "$seed" = default ] && echo "$s" || echo "${s}_s$seed"; }
@@ -65,7 +79,7 @@ for r in $RUNS; do
   if [ ! -f "$WORK/data/$name/rig.yaml" ]; then
     seed_args=(); [ "$seed" = default ] || seed_args=(--seed "$seed")
     echo "simulating $name" >&2
-    "$OVO" simulate --config "configs/sim/$scenario.yaml" --out "$WORK/data/$name" --overwrite "${seed_args[@]}" >/dev/null
+    "$OVO" simulate --config "configs/sim/$scenario.yaml" --out "$WORK/data/$name" --overwrite "${seed_args[@]}" "${SIM_SETS[@]}" >/dev/null
   fi
   for e in $ESTIMATORS; do echo "$name $e" >>"$jobs_list"; done
 done
