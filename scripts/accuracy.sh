@@ -87,6 +87,8 @@ done
 run_one() {
   local name=$1 e=$2 args=()
   case "$e" in refine) args=(--estimator window --refine full) ;; *) args=(--estimator "$e") ;; esac
+  # A failed run leaves its --out as it was: clear an earlier invocation's, or the table shows it.
+  rm -rf "${WORK:?}/runs/$name/$e"
   if ! "$OVO" run --dataset "$WORK/data/$name" --out "$WORK/runs/$name/$e" "${args[@]}" "${SETS[@]}" \
       >"$WORK/runs/$name.$e.log" 2>&1; then
     echo "accuracy.sh: ovo run failed on $name ($e): see $WORK/runs/$name.$e.log" >&2
@@ -129,7 +131,7 @@ ate() { [ -f "$1" ] && jq -r '.ate_rmse_m // empty' "$1"; return 0; }
     if $both; then
       k=$(ate "$WORK/runs/$name/kf/metrics.json"); w=$(ate "$WORK/runs/$name/window/metrics.json")
       ratio=$(awk -v k="$k" -v w="$w" 'BEGIN { if (k == "" || w == "" || w <= 0) print "-"; else printf "%.2f", k / w }')
-      row+=" ${ratio}x |"; count=$((count + 1))
+      [ "$ratio" = - ] && row+=" - |" || row+=" ${ratio}x |"; count=$((count + 1))
       awk -v r="$ratio" 'BEGIN { exit !(r + 0 >= 2) }' && wins=$((wins + 1))
     fi
     echo "$row"
