@@ -106,11 +106,10 @@ xargs -P "$JOBS" -L 1 bash -c 'eval "SETS=($SETS_STR)"; run_one "$0" "$1"' <"$jo
 
 cell() {  # ATE mm / yaw deg / scale % / est ms / RT from one metrics.json
   [ -f "$1" ] || { echo "failed"; return; }
-  jq -r '[(.ate_rmse_m // null | if . == null then "-" else (. * 1000 | . * 10 | round / 10 | tostring) end),
-           (.final_yaw_err_deg // null | if . == null then "-" else (. * 100 | round / 100 | tostring) end),
-           (.scale_err_pct // null | if . == null then "-" else (. * 100 | round / 100 | tostring) end),
-           (.timing.estimator_ms_median * 10 | round / 10 | tostring),
-           (.timing.realtime_factor * 100 | round / 100 | tostring)] | join(" / ")' "$1"
+  jq -r 'def r(d): if . == null then "-" else (. * d | round / d | tostring) end;
+          [(.ate_rmse_m // null | if . == null then null else . * 1000 end | r(10)),
+           (.final_yaw_err_deg | r(100)), (.scale_err_pct | r(100)),
+           (.timing.estimator_ms_median | r(10)), (.timing.realtime_factor | r(100))] | join(" / ")' "$1"
 }
 ate() { [ -f "$1" ] && jq -r '.ate_rmse_m // empty' "$1"; return 0; }
 
@@ -120,17 +119,16 @@ ate() { [ -f "$1" ] && jq -r '.ate_rmse_m // empty' "$1"; return 0; }
   both=false; [[ " $ESTIMATORS " == *" kf "* && " $ESTIMATORS " == *" window "* ]] && both=true
   $both && { header+=" kf / window |"; rule+="---|"; }
   echo "$header"; echo "$rule"
-  declare -A sum; wins=0; count=0
+  declare -A sum ate_of; wins=0; count=0
   for r in $RUNS; do
     name=$(name_of "$r"); row="| $name |"
     for e in $ESTIMATORS; do
       m="$WORK/runs/$name/$e/metrics.json"
       row+=" $(cell "$m") |"
-      a=$(ate "$m"); sum[$e]=$(echo "${sum[$e]:-0} ${a:-0}" | awk '{print $1 + $2}')
+      ate_of[$e]=$(ate "$m"); sum[$e]=$(echo "${sum[$e]:-0} ${ate_of[$e]:-0}" | awk '{print $1 + $2}')
     done
     if $both; then
-      k=$(ate "$WORK/runs/$name/kf/metrics.json"); w=$(ate "$WORK/runs/$name/window/metrics.json")
-      ratio=$(awk -v k="$k" -v w="$w" 'BEGIN { if (k == "" || w == "" || w <= 0) print "-"; else printf "%.2f", k / w }')
+      ratio=$(awk -v k="${ate_of[kf]}" -v w="${ate_of[window]}" 'BEGIN { if (k == "" || w == "" || w <= 0) print "-"; else printf "%.2f", k / w }')
       [ "$ratio" = - ] && row+=" - |" || row+=" ${ratio}x |"; count=$((count + 1))
       awk -v r="$ratio" 'BEGIN { exit !(r + 0 >= 2) }' && wins=$((wins + 1))
     fi
