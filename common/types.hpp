@@ -18,6 +18,7 @@ inline Timestamp fromSeconds(double t_s) { return static_cast<Timestamp>(t_s * 1
 
 using Vec2 = Eigen::Vector2d;
 using Vec3 = Eigen::Vector3d;
+using Mat2 = Eigen::Matrix2d;
 using Mat3 = Eigen::Matrix3d;
 using Quat = Eigen::Quaterniond;
 using SE3 = Eigen::Isometry3d;  // rigid transform T_A_B

@@ -13,6 +13,13 @@ BearingFactor::BearingFactor(const Vec3& bearing_Ca, const Vec3& bearing_Cj, con
       R_B_C_(T_B_C.rotation()),
       t_B_C_(T_B_C.translation()) {}
 
+BearingFactor::BearingFactor(const Vec3& bearing_Ca, const Vec3& bearing_Cj, const SE3& T_B_C,
+                             const Mat2& sqrt_information)
+    : bearing_Ca_(bearing_Ca.normalized()),
+      tangent_(sqrt_information * tangentBasis(bearing_Cj.normalized())),
+      R_B_C_(T_B_C.rotation()),
+      t_B_C_(T_B_C.translation()) {}
+
 Eigen::Matrix<double, 2, 3> BearingFactor::tangentBasis(const Vec3& b) {
   // Start from the coordinate axis least aligned with b, so the cross product is well conditioned.
   Vec3 axis = Vec3::Zero();

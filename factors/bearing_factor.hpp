@@ -36,6 +36,11 @@ class BearingFactor final : public ceres::SizedCostFunction<2, 4, 3, 4, 3, 1> {
  public:
   /// bearing_Ca, bearing_Cj: unit vectors; sigma_rad: angular noise (about pixel sigma / focal px).
   BearingFactor(const Vec3& bearing_Ca, const Vec3& bearing_Cj, const SE3& T_B_C, double sigma_rad);
+  /// The same with a 2x2 square-root information W in tangentBasis(bearing_Cj)'s axes (the
+  /// residual is W [t1 t2]^T u): e.g. the camera's pixels per radian there over the pixel sigma,
+  /// which whitens the residual as the image error in pixels would be.
+  BearingFactor(const Vec3& bearing_Ca, const Vec3& bearing_Cj, const SE3& T_B_C,
+                const Mat2& sqrt_information);
 
   bool Evaluate(double const* const* parameters, double* residuals,
                 double** jacobians) const override;

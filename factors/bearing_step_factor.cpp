@@ -10,6 +10,15 @@ BearingStepFactor::BearingStepFactor(const Vec3& bearing_Ca, const Vec3& bearing
       R_B_C_(T_B_C.rotation()),
       t_B_C_(T_B_C.translation()) {}
 
+BearingStepFactor::BearingStepFactor(const Vec3& bearing_Ca, const Vec3& bearing_Ci,
+                                     const Vec3& bearing_Ck, const SE3& T_B_C,
+                                     const Mat2& sqrt_information)
+    : bearing_Ca_(bearing_Ca.normalized()),
+      bearing_Ci_(bearing_Ci.normalized()),
+      tangent_(sqrt_information * BearingFactor::tangentBasis(bearing_Ck.normalized())),
+      R_B_C_(T_B_C.rotation()),
+      t_B_C_(T_B_C.translation()) {}
+
 bool BearingStepFactor::Evaluate(double const* const* parameters, double* residuals,
                                  double** jacobians) const {
   const double rho = parameters[6][0];

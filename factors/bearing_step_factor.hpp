@@ -21,6 +21,10 @@ class BearingStepFactor final : public ceres::SizedCostFunction<2, 4, 3, 4, 3, 4
  public:
   BearingStepFactor(const Vec3& bearing_Ca, const Vec3& bearing_Ci, const Vec3& bearing_Ck,
                     const SE3& T_B_C, double sigma_rad);
+  /// The same with a 2x2 square-root information W in BearingFactor::tangentBasis(bearing_Ck)'s
+  /// axes (r = W T_k (...)).
+  BearingStepFactor(const Vec3& bearing_Ca, const Vec3& bearing_Ci, const Vec3& bearing_Ck,
+                    const SE3& T_B_C, const Mat2& sqrt_information);
 
   bool Evaluate(double const* const* parameters, double* residuals,
                 double** jacobians) const override;

@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include "camera/calib_io.hpp"
+#include "camera/camera.hpp"
 #include "tests/factors/factor_test_util.hpp"
 
 namespace ovo::factors {
@@ -101,6 +103,38 @@ TEST(BearingFactor, PointAtInfinityIsFiniteAndRotationOnly) {
                      b[1].data(), b[2].data(), b[3].data(), 0.0, true);
   ASSERT_TRUE(predicted.has_value());
   EXPECT_GT(predicted->u.dot(R_Cj_Ca * s.bearing_Ca), 1.0 - 1e-12);
+}
+
+// Whitened by the camera's own Jacobian at the sighting (pixels per radian in the bearing's
+// tangent axes over the pixel sigma), the residual is the image error in sigmas, wherever in the
+// fisheye the sighting is: near the image circle a radian is fewer pixels than at the centre, and
+// the same angle is a smaller error there.
+TEST(BearingFactor, WhitenedByTheCamerasJacobianTheResidualIsThePixelErrorInSigmas) {
+  const auto path = ovo::test::sourcePath("configs/cameras/romovi_ocam.txt");
+  const camera::Camera cam = camera::loadCamera(path);
+  const double sigma_px = 0.5;
+  for (const Vec2 px_true : {Vec2(320.0, 240.0), Vec2(560.0, 250.0), Vec2(330.0, 40.0)}) {
+    const Vec3 p_C = 4.0 * *camera::unproject(cam, px_true);
+    const Vec2 px_meas = px_true + Vec2(0.6, -0.4);  // 0.72 px off
+    const Vec3 b_j = *camera::unproject(cam, px_meas);
+    Eigen::Matrix<double, 2, 3> J;
+    ASSERT_TRUE(camera::project(cam, b_j, &J));
+    const Mat2 px_per_rad = J * BearingFactor::tangentBasis(b_j).transpose();
+    // Anchor = observer (identity poses), so the prediction is the true point's bearing.
+    const BearingFactor f(p_C.normalized(), b_j, SE3::Identity(), Mat2(px_per_rad / sigma_px));
+    const std::vector<std::vector<double>> blocks = {quatBlock(Quat::Identity()),
+                                                     vecBlock(Vec3::Zero()),
+                                                     quatBlock(Quat::Identity()),
+                                                     vecBlock(Vec3::Zero()),
+                                                     {1.0 / 4.0}};
+    const Vec3 u = p_C.normalized();
+    const auto px_u = camera::project(cam, u);
+    ASSERT_TRUE(px_u);
+    const double err_px = (*px_u - px_meas).norm();
+    EXPECT_NEAR(testing::evaluate(f, blocks).norm() * sigma_px, err_px, 0.03 * err_px)
+        << "at " << px_true.transpose();
+    testing::expectJacobiansMatch(f, blocks, kQuatFlags, 1e-5);
+  }
 }
 
 }  // namespace
