@@ -17,7 +17,7 @@ const ovo::test::SyntheticSequence& sequence() {
   return seq;
 }
 
-void BM_WindowEstimator(benchmark::State& state, const std::string& solver) {
+void BM_WindowEstimator(benchmark::State& state, ovo::estimator::LinearSolver solver) {
   const auto& seq = sequence();
   ovo::estimator::WindowOptions options;
   options.linear_solver = solver;
@@ -41,11 +41,11 @@ void BM_WindowEstimator(benchmark::State& state, const std::string& solver) {
 
 }  // namespace
 
-BENCHMARK_CAPTURE(BM_WindowEstimator, dense_schur, std::string("dense_schur"))
+BENCHMARK_CAPTURE(BM_WindowEstimator, dense_schur, ovo::estimator::LinearSolver::kDenseSchur)
     ->Name("BM_WindowEstimator/synthetic6s/dense_schur")
     ->Unit(benchmark::kMillisecond)
     ->Iterations(2);
-BENCHMARK_CAPTURE(BM_WindowEstimator, sparse_schur, std::string("sparse_schur"))
+BENCHMARK_CAPTURE(BM_WindowEstimator, sparse_schur, ovo::estimator::LinearSolver::kSparseSchur)
     ->Name("BM_WindowEstimator/synthetic6s/sparse_schur")
     ->Unit(benchmark::kMillisecond)
     ->Iterations(2);

@@ -12,6 +12,7 @@
 #include <optional>
 #include <set>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace ovo {
@@ -58,6 +59,22 @@ class Config {
   /// Reads a string that must be one of `choices`.
   std::string getChoice(const std::string& key, const std::string& fallback,
                         const std::vector<std::string>& choices) const;
+  /// Reads a string naming one of `names`' enum values (e.g. {{"huber", Loss::kHuber}, ...}); an
+  /// absent key gives `fallback`, any other string is an error listing the names.
+  template <typename E>
+  E getEnum(const std::string& key, E fallback,
+            const std::vector<std::pair<std::string, E>>& names) const {
+    std::string fallback_name;
+    std::vector<std::string> choices;
+    for (const auto& [name, value] : names) {
+      choices.push_back(name);
+      if (value == fallback) fallback_name = name;
+    }
+    const std::string v = getChoice(key, fallback_name, choices);
+    for (const auto& [name, value] : names)
+      if (name == v) return value;
+    return fallback;
+  }
 
   /// Marks every key under `prefix` as used (for blocks read by another component).
   void markUsed(const std::string& prefix) const;

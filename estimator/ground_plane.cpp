@@ -8,11 +8,14 @@ namespace ovo::estimator {
 
 GroundPlaneOptions readGroundPlaneOptions(const Config& cfg) {
   GroundPlaneOptions o;
-  o.max_normal_deviation_deg = cfg.getInRange("vo.ground.max_normal_deviation_deg", o.max_normal_deviation_deg, 0.0, 90.0);
-  o.max_point_angle_from_down_deg =
-      cfg.getInRange("vo.ground.max_point_angle_from_down_deg", o.max_point_angle_from_down_deg, 1.0, 90.0);
-  o.inlier_rel_threshold = cfg.getInRange("vo.ground.inlier_rel_threshold", o.inlier_rel_threshold, 1e-4, 1.0);
-  o.ransac_iterations = cfg.getIntInRange("vo.ground.ransac_iterations", o.ransac_iterations, 1, 100000);
+  o.max_normal_deviation_deg =
+      cfg.getInRange("vo.ground.max_normal_deviation_deg", o.max_normal_deviation_deg, 0.0, 90.0);
+  o.max_point_angle_from_down_deg = cfg.getInRange("vo.ground.max_point_angle_from_down_deg",
+                                                   o.max_point_angle_from_down_deg, 1.0, 90.0);
+  o.inlier_rel_threshold =
+      cfg.getInRange("vo.ground.inlier_rel_threshold", o.inlier_rel_threshold, 1e-4, 1.0);
+  o.ransac_iterations =
+      cfg.getIntInRange("vo.ground.ransac_iterations", o.ransac_iterations, 1, 100000);
   o.min_inliers = cfg.getIntInRange("vo.ground.min_inliers", o.min_inliers, 3, 100000);
   return o;
 }
@@ -94,7 +97,8 @@ std::optional<GroundPlane> fitGroundPlane(const std::vector<Vec3>& points_C, con
   // One re-selection of inliers against the refined plane, then the final fit.
   std::vector<Vec3> inl2;
   for (const auto& p : cand)
-    if (std::abs(plane->up_C.dot(p) + plane->height) < options.inlier_rel_threshold * plane->height) inl2.push_back(p);
+    if (std::abs(plane->up_C.dot(p) + plane->height) < options.inlier_rel_threshold * plane->height)
+      inl2.push_back(p);
   if (static_cast<int>(inl2.size()) >= options.min_inliers) {
     auto refined = leastSquaresPlane(inl2, up);
     if (refined && refined->up_C.dot(up) >= cos_normal) plane = refined;

@@ -21,49 +21,6 @@ double epipolarError(const Vec3& t, const Vec3& Rb0, const Vec3& b1) {
 
 }  // namespace
 
-void StandstillBias::add(Timestamp t_ns, const Vec3& rotation_rad, double dt_s) {
-  if (dt_s > 0.0) open_.push_back({t_ns, rotation_rad, dt_s});
-}
-
-void StandstillBias::endStreak() {
-  if (open_.empty()) return;
-  const Timestamp keep_until = open_.back().t_ns - fromSeconds(trim_s_);
-  for (const Sample& s : open_)
-    if (s.t_ns <= keep_until) ended_.push_back(s);
-  open_.clear();
-}
-
-std::optional<StandstillBias::Estimate> StandstillBias::estimate(double min_time_s) const {
-  Estimate e;
-  Vec3 rotation = Vec3::Zero();
-  for (const auto* samples : {&ended_, &open_})
-    for (const Sample& s : *samples) {
-      rotation += s.rotation_rad;
-      e.time_s += s.dt_s;
-    }
-  if (!(e.time_s > 0.0) || e.time_s < min_time_s) return std::nullopt;
-  e.bias_radps = rotation / e.time_s;
-  // A frame's mean rate has the variance noise_density^2 / dt per axis.
-  double chi2 = 0.0;
-  int n = 0;
-  for (const auto* samples : {&ended_, &open_})
-    for (const Sample& s : *samples) {
-      chi2 += (s.rotation_rad / s.dt_s - e.bias_radps).squaredNorm() * s.dt_s /
-              (noise_density_ * noise_density_);
-      ++n;
-    }
-  e.chi2_dof = n > 1 ? chi2 / (3.0 * (n - 1)) : 1.0;
-  e.sigma_radps = std::sqrt(noise_density_ * noise_density_ / e.time_s +
-                            bias_random_walk_ * bias_random_walk_ * e.time_s) *
-                  std::sqrt(std::max(1.0, e.chi2_dof));
-  return e;
-}
-
-void StandstillBias::reset() {
-  ended_.clear();
-  open_.clear();
-}
-
 double medianParallaxDeg(const std::vector<Vec3>& bearings0_C, const std::vector<Vec3>& bearings1_C,
                          const Mat3& R_C1_C0) {
   std::vector<double> angles;

@@ -44,42 +44,6 @@ TwoViewResult triangulateTwoView(const std::vector<Vec3>& bearings0_C,
                                  const Vec3& t_C1_C0, const std::vector<std::uint8_t>* inliers,
                                  double min_parallax_deg);
 
-/// Zero-rate update of the gyro bias (DESIGN section 7): the mean raw gyro rate over still frames
-/// without the last trim_s of each still streak (the frames just before the motion was detected,
-/// which already hold the start of it), with sigma = noise_density / sqrt(T) plus the walk over
-/// T, scaled up by sqrt(chi^2 / dof) when the frames scatter more than that noise explains.
-class StandstillBias {
- public:
-  struct Estimate {
-    Vec3 bias_radps = Vec3::Zero();
-    double time_s = 0.0;       // still time used, s
-    double sigma_radps = 0.0;  // per axis
-    double chi2_dof = 0.0;     // scatter of the frames' rates over the gyro noise (about 1: still)
-  };
-  StandstillBias(double noise_density, double bias_random_walk, double trim_s)
-      : noise_density_(noise_density), bias_random_walk_(bias_random_walk), trim_s_(trim_s) {}
-
-  /// One still frame: the raw (zero-bias) gyro rotation vector over dt_s, ending at t_ns.
-  void add(Timestamp t_ns, const Vec3& rotation_rad, double dt_s);
-  /// The first moving frame after still ones: the open streak loses its last trim_s and counts.
-  void endStreak();
-  bool inStreak() const { return !open_.empty(); }
-  /// Over the ended streaks and the open one (untrimmed); nullopt below min_time_s.
-  std::optional<Estimate> estimate(double min_time_s) const;
-  void reset();
-
- private:
-  struct Sample {
-    Timestamp t_ns;
-    Vec3 rotation_rad;
-    double dt_s;
-  };
-  double noise_density_;     // rad/s/sqrt(Hz)
-  double bias_random_walk_;  // rad/s^2/sqrt(Hz)
-  double trim_s_;            // s
-  std::vector<Sample> ended_, open_;
-};
-
 /// The initialisation's metric scale from LiDAR range ratios (beam range over the unit-baseline
 /// distance of the track it lands next to). Ratios are grouped by agreement within 20 %: the
 /// largest group wins unless a group at least half its size disagrees with it (beams through a

@@ -25,6 +25,10 @@ struct TrackObservation {
   Vec2 px = Vec2::Zero();
   Vec3 bearing_C = Vec3::UnitZ();
   int age = 1;  // frames the track has lived (selection prefers old tracks)
+  /// The camera's pixels per radian at this bearing: d px / d (angles along
+  /// factors::BearingFactor::tangentBasis(bearing_C)); zero when not known (a keyframe's
+  /// observations get it).
+  Mat2 px_per_rad = Mat2::Zero();
 };
 
 /// What the frontend hands the window core for one camera frame.

@@ -32,8 +32,11 @@ WindowOptions readWindowOptions(const Config& c) {
   o.landmark_max_depth_m =
       c.getInRange(p + "landmark_max_depth_m", o.landmark_max_depth_m, 0.1, 1e6);
   o.outlier_angle_deg = c.getInRange(p + "outlier_angle_deg", o.outlier_angle_deg, 1e-3, 45.0);
+  o.outlier_sigmas = c.getInRange(p + "outlier_sigmas", o.outlier_sigmas, 0.5, 1e3);
 
   o.pixel_sigma = c.getInRange(p + "pixel_sigma", o.pixel_sigma, -1.0, 100.0);
+  o.bearing_sigma_from_camera =
+      c.get<bool>(p + "bearing_sigma_from_camera", o.bearing_sigma_from_camera);
   o.bearing_huber_sigmas =
       c.getInRange(p + "bearing_huber_sigmas", o.bearing_huber_sigmas, 0.1, 100.0);
   o.lidar_range_sigma_m =
@@ -62,15 +65,17 @@ WindowOptions readWindowOptions(const Config& c) {
   o.lidar_interpolate = c.get<bool>(p + "lidar_interpolate", o.lidar_interpolate);
   o.lidar_ground_sigma_m =
       c.getInRange(p + "lidar_ground_sigma_m", o.lidar_ground_sigma_m, 1e-4, 10.0);
-  o.lidar_ground_beams =
-      c.getChoice(p + "lidar_ground_beams", o.lidar_ground_beams, {"plane", "skip", "raw"});
+  o.lidar_ground_beams = c.getEnum(
+      p + "lidar_ground_beams", o.lidar_ground_beams,
+      {{"plane", GroundBeams::kPlane}, {"skip", GroundBeams::kSkip}, {"raw", GroundBeams::kRaw}});
   o.lidar_max_elevation_deg =
       c.getInRange(p + "lidar_max_elevation_deg", o.lidar_max_elevation_deg, 0.0, 45.0);
   o.lidar_outlier_sigmas =
       c.getInRange(p + "lidar_outlier_sigmas", o.lidar_outlier_sigmas, 0.0, 1000.0);
   o.lidar_outlier_fraction =
       c.getInRange(p + "lidar_outlier_fraction", o.lidar_outlier_fraction, 0.0, 10.0);
-  o.lidar_loss = c.getChoice(p + "lidar_loss", o.lidar_loss, {"huber", "cauchy"});
+  o.lidar_loss = c.getEnum(p + "lidar_loss", o.lidar_loss,
+                           {{"huber", RobustLoss::kHuber}, {"cauchy", RobustLoss::kCauchy}});
   o.lidar_edge_neighbours =
       c.getIntInRange(p + "lidar_edge_neighbours", o.lidar_edge_neighbours, 0, 20);
   o.lidar_scan_time_tol_s =
@@ -108,13 +113,17 @@ WindowOptions readWindowOptions(const Config& c) {
   o.reinit_after_lost_frames =
       c.getIntInRange(p + "reinit_after_lost_frames", o.reinit_after_lost_frames, 1, 100000);
 
-  o.linear_solver =
-      c.getChoice(p + "linear_solver", o.linear_solver, {"dense_schur", "sparse_schur"});
+  o.linear_solver = c.getEnum(
+      p + "linear_solver", o.linear_solver,
+      {{"dense_schur", LinearSolver::kDenseSchur}, {"sparse_schur", LinearSolver::kSparseSchur}});
   o.max_iterations = c.getIntInRange(p + "max_iterations", o.max_iterations, 1, 1000);
   o.max_solver_time_s = c.getInRange(p + "max_solver_time_s", o.max_solver_time_s, 0.0, 100.0);
   o.motion_only_iterations =
       c.getIntInRange(p + "motion_only_iterations", o.motion_only_iterations, 1, 100);
-  o.refine = c.getChoice(p + "refine", o.refine, {"none", "full"});
+  o.frame_rotation_from_gyro =
+      c.get<bool>(p + "frame_rotation_from_gyro", o.frame_rotation_from_gyro);
+  o.refine =
+      c.getEnum(p + "refine", o.refine, {{"none", RefineMode::kNone}, {"full", RefineMode::kFull}});
   o.refine_iterations = c.getIntInRange(p + "refine_iterations", o.refine_iterations, 1, 1000);
   o.refine_passes = c.getIntInRange(p + "refine_passes", o.refine_passes, 1, 10);
   o.refine_bearing_steps = c.get<bool>(p + "refine_bearing_steps", o.refine_bearing_steps);
@@ -142,7 +151,8 @@ WindowOptions readWindowOptions(const Config& c) {
   o.terrain_height_walk =
       c.getInRange(p + "terrain_height_walk", o.terrain_height_walk, 1e-6, 10.0);
   o.marginalize_reanchored =
-      c.getChoice(p + "marginalize_reanchored", o.marginalize_reanchored, {"link", "all", "none"});
+      c.getEnum(p + "marginalize_reanchored", o.marginalize_reanchored,
+                {{"link", ReanchoredPrior::kLink}, {"none", ReanchoredPrior::kNone}});
 
   o.gyro = factors::readGyroPreintegrationOptions(c, "gyro");
   return o;

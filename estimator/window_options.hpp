@@ -3,12 +3,31 @@
 // blocks ("frontend.", "ransac.") are read by their readers.
 #pragma once
 
-#include <string>
-
 #include "common/config.hpp"
 #include "factors/gyro_preintegration.hpp"
 
 namespace ovo::estimator {
+
+/// Linear solver of the window's Ceres problem (DESIGN section 7: both measured, dense wins at 10
+/// keyframes).
+enum class LinearSolver { kDenseSchur, kSparseSchur };
+/// Whether the run ends with a batch re-optimisation of every keyframe (offline only).
+enum class RefineMode { kNone, kFull };
+/// How a LiDAR beam that ends on the ground constrains the landmark next to it.
+enum class GroundBeams {
+  kPlane,  // the landmark lies on the ground plane through the beam end (lidarSigma's noise)
+  kSkip,   // not used
+  kRaw,    // the beam's range, as for any other beam (biased long at grazing angles)
+};
+/// Robust loss of the LiDAR range factors.
+enum class RobustLoss { kHuber, kCauchy };
+/// What enters the marginalisation prior of a landmark that outlives the oldest keyframe (it is
+/// re-anchored in the next keyframe that sees it).
+enum class ReanchoredPrior {
+  kLink,  // the oldest keyframe's own factors and the sighting that links the old anchor to the
+          // new one; the later sightings stay in the window (each measurement counted once)
+  kNone,  // none (the prior keeps little but the gyro)
+};
 
 struct WindowOptions {
   // Sensors.
@@ -33,26 +52,29 @@ struct WindowOptions {
   // Landmarks.
   double landmark_min_parallax_deg = 1.0;  // triangulation angle needed to create a landmark, deg
   double landmark_min_depth_m = 0.2;       // nearer points are rejected, m (after scale init)
-  double landmark_max_depth_m = 80.0;      // farther points are kept out of the window, m
-  double outlier_angle_deg = 0.5;          // an observation further than this from its prediction
-                                           // after a solve is removed, deg
+  double landmark_max_depth_m = 80.0;      // farther triangulations start as points at
+                                           // infinity (inverse depth 0; the solve may bring
+                                           // them nearer), m
+  double outlier_sigmas = 5.0;     // after a solve a sighting further than this from its landmark's
+                                   // prediction, in its own sigmas (pixel noise and the track's
+                                   // creep since the anchor, through the camera), is removed;
+                                   // the full refinement's passes use the same gate
+  double outlier_angle_deg = 0.5;  // the gate in degrees for a frame's own pose against the
+                                   // window's landmarks, deg
 
   // Noise and losses.
-  double pixel_sigma = -1.0;          // image noise, px; < 0: the rig's value
-  double bearing_huber_sigmas = 2.0;  // Huber loss threshold, in units of the bearing sigma
-  double track_creep_px = 0.2;        // a track's random walk, px per sqrt(frame) (measured on the
-                                // simulated rows without the frontend's Lucas-Kanade step: 0.38 px
-                                // after 1 frame, 0.9 after 10, 1.8 after 40; the step halves it,
-                                // but smaller values measured no better: 21 runs 0.130 m at 0.15
-                                // against 0.124 m with the 9x9 patch, 0.147 m at 0.1 against
-                                // 0.146 m with the 7x7): added to the bearing sigma between anchor
-                                // and observation
+  double pixel_sigma = -1.0;              // image noise, px; < 0: the rig's value
+  bool bearing_sigma_from_camera = true;  // a sighting's angular noise from the camera model's
+                                          // pixels per radian at its bearing (false: the centre
+                                          // focal length for the whole image)
+  double bearing_huber_sigmas = 2.0;      // Huber loss threshold, in units of the bearing sigma
+  double track_creep_px = 0.2;   // a track's random walk, px per sqrt(frame): the sigma between
+                                 // two sightings grows with the frames between them
   bool bearing_steps = true;     // a track's sightings after its first are tied to the previous
                                  // sighting (BearingStepFactor), not to the anchor: the steps of
                                  // a random walk are independent, its errors against the anchor
                                  // are not (no effect with track_creep_px 0)
-  double track_white_px = 0.16;  // ... the sighting noise of a step's two ends, px (each; 0.12
-                                 // with the Lucas-Kanade step: 21 runs 0.125 against 0.124 m)
+  double track_white_px = 0.16;  // the sighting noise of each end of a step, px
   double lidar_range_sigma_m = -1.0;          // LiDAR range noise, m; < 0: the rig's value
   double lidar_association_sigma_m = 0.0;     // added in quadrature to the range noise: a
                                               // landmark off the scan plane, on foliage, m
@@ -61,9 +83,7 @@ struct WindowOptions {
   double gyro_bias_prior_sigma_radps = 0.02;  // prior on the first keyframe's bias, rad/s
   double vision_rotation_sigma_rad = 1e-3;    // a keyframe's orientation as the vision sees it is
                                               // tied to the gyro chain's with this sigma (0: one
-                                              // orientation for both), rad. 3e-3 did not keep
-                                              // the vision's steady pitch out of the gyro bias
-                                              // (10 runs 0.064 -> 0.067 m)
+                                              // orientation for both), rad
   double reinit_bias_sigma_radps = 1e-3;   // ... after a loss: the previous estimate's sigma, rad/s
   double gauge_sigma_position_m = 1e-4;    // first-keyframe pose prior before the first marg., m
   double gauge_sigma_yaw_rad = 1e-4;       // ... and its yaw/roll/pitch sigma, rad
@@ -80,13 +100,9 @@ struct WindowOptions {
   double ground_scale_gate = 0.2;               // the keyframe's fitted plane must be within this
                                                 // fraction of the camera height (scale sanity)
   double ground_scale_gate_no_lidar = 0.5;      // ... without a LiDAR, where the ground is the only
-                                                // scale after the start: a start from a poor plane
-                                                // is then corrected, not kept
+                                                // scale after the start
   double ground_normal_max_deg_no_lidar = 5.0;  // ... and without a LiDAR its normal within
-                                                // this of the body's up, as the ground chain's
-                                                // before the start (else vo.ground's 20 deg):
-                                                // fewer planes, but no tilted plane's bias in
-                                                // the only scale there is, deg
+                                                // this of the body's up (else vo.ground's), deg
   double ground_inlier_fraction = 0.04;  // a point is on the plane within this fraction of the
                                          // camera height; after a solve it keeps its factor
                                          // within twice that
@@ -105,11 +121,8 @@ struct WindowOptions {
                                    // differ by less than this fraction of the range
   int lidar_edge_neighbours = 2;   // ... over this many beams on each side (0: off)
   // With lidar_interpolate, beams ending on the ground (0.7 camera heights below the camera; needs
-  // the rig's camera height) meet it grazing, so their range hangs on the elevation. plane: the
-  // landmark lies on the ground plane (body up) through the beam end, its height off it known to
-  // lidarSigma (window_problem.hpp); raw: the beam's range (biased long: measured worse); skip:
-  // not used (loses scale: measured worse).
-  std::string lidar_ground_beams = "plane";
+  // the rig's camera height) meet it grazing, so their range hangs on the elevation.
+  GroundBeams lidar_ground_beams = GroundBeams::kPlane;
   double lidar_ground_sigma_m = 0.002;   // the ground's own departure from that plane (its
                                          // roughness, the body's tilt against it), m
   bool lidar_interpolate = true;         // associate landmarks near the scan plane with the range
@@ -118,8 +131,8 @@ struct WindowOptions {
   double lidar_outlier_sigmas = 3.0;     // after a solve an association is removed when its
   double lidar_outlier_fraction = 0.05;  // residual exceeds this many sigmas and this fraction
                                          // of the range
-  std::string lidar_loss = "huber";      // robust loss of LiDAR factors: huber | cauchy
-  double lidar_scan_time_tol_s = 0.004;  // a scan belongs to a frame within this time, s
+  RobustLoss lidar_loss = RobustLoss::kHuber;  // robust loss of the LiDAR factors
+  double lidar_scan_time_tol_s = 0.004;        // a scan belongs to a frame within this time, s
   // A frame without one takes the latest scan up to this much older, its LiDAR pose moved by the
   // motion since (a LiDAR out of step with the camera; scanFor); 0: none, s.
   double lidar_scan_max_age_s = 0.05;
@@ -156,29 +169,25 @@ struct WindowOptions {
   int reinit_after_lost_frames = 5;   // lost this long: restart the window at the current pose
 
   // Solver.
-  std::string linear_solver = "dense_schur";  // dense_schur | sparse_schur
-  int max_iterations = 4;                     // per window solve (warm-started by the last)
-  double max_solver_time_s = 0.0;             // per window solve, s; 0 = no limit (online: ~0.04)
-  int motion_only_iterations = 5;             // per-frame pose refinement
-  std::string refine = "none";                // none | full (offline: re-optimise all keyframes)
-  int refine_iterations = 30;                 // full refinement iterations per pass
-  int refine_passes = 2;                      // solves, outliers removed between them
-  bool refine_bearing_steps = false;          // the refinement's own bearing_steps (anchor
-                                              // factors: better on KITTI 07 and the simulated
-                                              // runs, see README)
-  int refine_max_span_frames = 40;            // a track becomes a new landmark after this many
-                                              // frames (tracks creep: a long span ties far
-                                              // keyframes with a biased ray); 0: never. Not
-                                              // with refine_bearing_steps: they model the creep
-  bool refine_ground = true;                  // camera-height factors in the refinement
-  int marginalize_max_landmarks = 0;          // ending landmarks Schur-complemented into the prior,
-                                              // strongest first (the rest are dropped); 0: all
-  // Landmarks that outlive the oldest keyframe, before they are re-anchored in the next keyframe
-  // that sees them. link: the factor tying the old anchor to the new one (and the anchor's own)
-  // goes into the prior, the later observations stay in the window, each counted once. all: every
-  // factor goes in (VINS-Mono), and the later observations then count twice: vision outweighs
-  // the gyro and pulls its bias. none: dropped (the prior keeps little but the gyro).
-  std::string marginalize_reanchored = "link";
+  LinearSolver linear_solver = LinearSolver::kDenseSchur;
+  int max_iterations = 4;                 // per window solve (warm-started by the last)
+  double max_solver_time_s = 0.0;         // per window solve, s; 0 = no limit (online: ~0.04)
+  int motion_only_iterations = 5;         // per-frame pose refinement
+  bool frame_rotation_from_gyro = true;   // a frame between keyframes takes its keyframe's
+                                          // orientation turned by the gyro since (false: its
+                                          // own refinement's against the landmarks)
+  RefineMode refine = RefineMode::kNone;  // full: re-optimise all keyframes at the end
+  int refine_iterations = 30;             // full refinement iterations per pass
+  int refine_passes = 2;                  // solves, outliers removed between them
+  bool refine_bearing_steps = false;      // the refinement's own bearing_steps
+  int refine_max_span_frames = 40;        // a track becomes a new landmark after this many
+                                          // frames (tracks creep: a long span ties far
+                                          // keyframes with a biased ray); 0: never. Not
+                                          // with refine_bearing_steps: they model the creep
+  bool refine_ground = true;              // camera-height factors in the refinement
+  int marginalize_max_landmarks = 0;      // ending landmarks Schur-complemented into the prior,
+                                          // strongest first (the rest are dropped); 0: all
+  ReanchoredPrior marginalize_reanchored = ReanchoredPrior::kLink;
 
   factors::GyroPreintegrationOptions gyro;  // "gyro." keys
   bool operator==(const WindowOptions&) const = default;

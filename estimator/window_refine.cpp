@@ -6,6 +6,7 @@
 #include <memory>
 
 #include "estimator/estimator.hpp"
+#include "factors/bias_prior_factor.hpp"
 #include "factors/pose_prior_factor.hpp"
 #include "frontend/triangulation.hpp"
 
@@ -69,7 +70,8 @@ void labelGroundLandmarks(std::unordered_map<TrackId, Landmark>& landmarks,
   const double min_down = std::sin(options.ground_min_depression_deg * kDegToRad);
   std::unordered_map<int, std::vector<Landmark*>> by_anchor;
   for (auto& [id, lm] : landmarks)
-    if (lm.rho[0] > 0.0) by_anchor[lm.anchor_kf].push_back(&lm);
+    if (lm.rho[0] > 1e-6)  // (not the points at infinity)
+      by_anchor[lm.anchor_kf].push_back(&lm);
   for (auto& [kf_id, lms] : by_anchor) {
     std::vector<Vec3> points_C;
     for (const Landmark* lm : lms) points_C.push_back(lm->bearing_anchor_C / lm->rho[0]);
@@ -186,7 +188,6 @@ RefineInfo refineKeyframes(const std::vector<Keyframe*>& keyframes,
   if (options.refine_ground) labelGroundLandmarks(landmarks, model, options, ground_options);
   seedTerrain(kfs, model);
 
-  const double max_angle = options.outlier_angle_deg * kDegToRad;
   const int passes = std::max(1, options.refine_passes);
   for (int pass = 0; pass < passes; ++pass) {
     auto factors = buildFactors(kfs, landmarks, model, gauge);
@@ -206,7 +207,7 @@ RefineInfo refineKeyframes(const std::vector<Keyframe*>& keyframes,
       if (!model.use_gyro || g == later_gauges.end()) continue;
       FactorSpec b;
       b.kind = FactorKind::kBiasPrior;
-      b.cost = std::make_unique<BiasPriorFactor>(
+      b.cost = std::make_unique<factors::BiasPriorFactor>(
           g->second->b_g, g->second->b_g_sigma_radps > 0.0 ? g->second->b_g_sigma_radps
                                                            : model.bias_prior_sigma_radps);
       b.blocks = {kfs[k]->b_g};
@@ -220,7 +221,7 @@ RefineInfo refineKeyframes(const std::vector<Keyframe*>& keyframes,
       info.ground_factors += f.kind == FactorKind::kGround;
     }
     SolveOptions so;
-    so.linear_solver = "sparse_schur";
+    so.linear_solver = LinearSolver::kSparseSchur;
     so.max_iterations = options.refine_iterations;
     const SolveSummary s = solveFactors(std::move(factors), kfs, landmarks, model, so);
     ++info.passes;
@@ -234,7 +235,7 @@ RefineInfo refineKeyframes(const std::vector<Keyframe*>& keyframes,
     // Outliers at the solved states: bearings beyond the window's gate, LiDAR ranges beyond its
     // gate, landmarks at a depth bound; the gyro factors re-linearised at the new biases.
     for (const ObservationError& err : observationErrors(kfs, landmarks, model)) {
-      if (err.angle_rad <= max_angle) continue;
+      if (err.sigmas <= options.outlier_sigmas) continue;
       for (Keyframe* kf : kfs)
         if (kf->id == err.kf_id) info.removed_outliers += kf->observations.erase(err.track);
     }
@@ -243,7 +244,7 @@ RefineInfo refineKeyframes(const std::vector<Keyframe*>& keyframes,
     for (Keyframe* kf : kfs) {
       info.removed_outliers += std::erase_if(kf->lidar, [&](const LidarAssociation& a) {
         const auto lm = landmarks.find(a.track_id);
-        if (lm == landmarks.end()) return true;
+        if (lm == landmarks.end() || !(lm->second.rho[0] > 1e-9)) return true;
         const Vec3 p_W = kf_of.at(lm->second.anchor_kf)->pose() *
                          (model.T_B_C * (lm->second.bearing_anchor_C / lm->second.rho[0]));
         return lidarOutlier(a, p_W, *kf, model, options.lidar_outlier_sigmas,

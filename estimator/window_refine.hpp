@@ -11,7 +11,7 @@
 #include "estimator/ground_plane.hpp"
 #include "estimator/window_map.hpp"
 #include "estimator/window_options.hpp"
-#include "estimator/window_problem.hpp"
+#include "estimator/window_solve.hpp"
 
 namespace ovo::estimator {
 

@@ -854,28 +854,27 @@ TEST(WindowCore, FullRefinementMatchesTheOnlineWindow) {
   // 12 s drives, most keyframes marginalised online, with tracks that creep (0.2 px per
   // sqrt(frame)); the batch has an outlier pass. With anchor factors the batch cuts tracks into
   // pieces of at most 40 frames; with bearing steps, which model the creep, it keeps them whole.
-  // One draw decides little (the batch's RMSE over seeds 2..6 ranges 0.006 to 0.028 m), so the
-  // claims are checked over five: in sum the batch is at least as good as the online window when
-  // both use the same factors, and no drive leaves the product's bound (ATE 0.5 % of the path).
-  // Measured (online / batch factors):
-  //   anchors/anchors: online 0.0101 0.0133 0.0421 0.0089 0.0121 m, batch 0.0069 0.0190 0.0275
-  //     0.0060 0.0239 m (sums 0.087 and 0.083);
-  //   steps/steps: online 0.0079 0.0064 0.0369 0.0086 0.0089 m, batch 0.0079 0.0070 0.0157
-  //     0.0128 0.0098 m (sums 0.069 and 0.053);
-  //   steps/anchors (the defaults: anchor factors lose less of KITTI 07's scale, and do better on
-  //     the simulated runs, whose tracks do not creep as a pure random walk): batch 0.0182 0.0144
-  //     0.0262 0.0079 0.0117 m (sum 0.078, 1.14x the online window's): bound 1.2x.
-  // Fails with steps if the batch cuts tracks after 40 frames (sum 0.102 m), and with the ground
-  // beams' raw ranges (window.lidar_ground_beams=raw, biased long) even with anchor factors:
-  // 0.047 against 0.015 m on seed 2 (sums 0.113 and 0.073).
+  // One draw decides little (the batch's RMSE over seeds 2..6 ranges 0.006 to 0.033 m), so the
+  // claims are checked over five, and no drive leaves the product's bound (ATE 0.5 % of the
+  // path). Before wave 2's #40 the batch matched the online window with the same factors
+  // (anchors/anchors sums 0.087 online, 0.083 batch; steps/steps 0.069 and 0.053). The test
+  // fails with steps if the batch cuts tracks after 40 frames, and with the ground beams' raw
+  // ranges (window.lidar_ground_beams=raw, biased long) even with anchor factors.
   struct Models {
     bool online_steps, refine_steps;
     const char* name;
-    double max_ratio;  // batch sum / online sum
+    double max_ratio;      // batch sum / online sum
+    double max_rot_ratio;  // the same for the rotation RMSE
   };
-  for (const Models m :
-       {Models{false, false, "anchors/anchors", 1.1}, Models{true, false, "steps/anchors", 1.2},
-        Models{true, true, "steps/steps", 1.1}}) {
+  // Since the online window gates outliers in sigmas, keeps far points at infinity and gives its
+  // frames the gyro's rotation (wave 2, #40), it beats the batch with anchor factors: measured
+  // position sums online / batch 0.0627 / 0.0821 m (anchors/anchors), 0.0648 / 0.0763 m
+  // (steps/anchors), 0.0648 / 0.0466 m (steps/steps); rotation 0.403 / 0.741 deg (steps/anchors),
+  // 0.403 / 0.476 deg (steps/steps). The bounds hold those ratios (a known weakness of the batch's
+  // anchor factors over 40-frame tracks, not a target).
+  for (const Models m : {Models{false, false, "anchors/anchors", 1.4, 2.0},
+                         Models{true, false, "steps/anchors", 1.3, 2.0},
+                         Models{true, true, "steps/steps", 1.1, 1.3}}) {
     SCOPED_TRACE(m.name);
     double online_sum = 0.0, full_sum = 0.0, rot_online_sum = 0.0, rot_full_sum = 0.0;
     const std::vector<std::uint32_t> seeds = {2, 3, 4, 5, 6};
@@ -890,7 +889,7 @@ TEST(WindowCore, FullRefinementMatchesTheOnlineWindow) {
       options.bearing_steps = m.online_steps;
       const auto online = run(seq, options);
       WindowOptions refine = options;
-      refine.refine = "full";
+      refine.refine = RefineMode::kFull;
       refine.refine_bearing_steps = m.refine_steps;
       WindowCore core(seq.setup, refine);
       test::feedSequence(seq, core, [](std::size_t, const FrameEstimate&) {});
@@ -926,7 +925,7 @@ TEST(WindowCore, FullRefinementMatchesTheOnlineWindow) {
       rot_full_sum += full_rmse.rotation_deg;
     }
     EXPECT_LT(full_sum, m.max_ratio * online_sum);
-    EXPECT_LE(rot_full_sum, 1.1 * rot_online_sum + 0.02 * seeds.size());
+    EXPECT_LE(rot_full_sum, m.max_rot_ratio * rot_online_sum + 0.02 * seeds.size());
   }
 }
 
@@ -943,11 +942,15 @@ TEST(WindowCore, WithoutGyroUsesVisionOnlyRotationAndSaysSo) {
             0.05 * pathLength(seq));
 }
 
-TEST(WindowCore, BearingStepsFollowTheTracksCreep) {
+TEST(WindowCore, BothSightingModelsFollowTheTracksCreep) {
   // Tracks that creep 0.2 px per sqrt(frame) share their walk in every error against the anchor;
-  // tied to the previous sighting instead, each factor sees one step of it. Measured over seeds
-  // 2..7 of the 12 s creep drive: online RMSE 0.0166 m (mean) with anchor factors, 0.0136 m with
-  // steps, better on 5 of 6 seeds.
+  // tied to the previous sighting instead, each factor sees one step of it. Anchor factors model
+  // the walk in their sigma (growing with the square root of the frames since the anchor), and the
+  // outlier gate, in sigmas of each factor's own noise, keeps the long tracks' late sightings.
+  // Measured over seeds 2..7 of the 12 s creep drive (position RMSE sums): anchor factors 0.0701
+  // m, steps 0.0705 m. Before (a fixed 0.5 deg gate, which pruned the late sightings of long
+  // tracks, and one angular sigma for the whole fisheye) anchor factors gave 0.0996 m, steps
+  // 0.0816 m.
   double anchor_sum = 0.0, steps_sum = 0.0;
   for (std::uint32_t seed = 2; seed <= 7; ++seed) {
     SyntheticOptions o;
@@ -969,7 +972,8 @@ TEST(WindowCore, BearingStepsFollowTheTracksCreep) {
     anchor_sum += ra;
     steps_sum += rb;
   }
-  EXPECT_LT(steps_sum, 0.85 * anchor_sum);
+  EXPECT_LT(anchor_sum, 0.085);
+  EXPECT_LT(steps_sum, 0.085);
 }
 
 }  // namespace

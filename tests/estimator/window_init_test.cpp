@@ -3,6 +3,7 @@
 // still took for standing. The initialisation's LiDAR scale vote (voteLidarScale) on range
 // ratios with known groups.
 #include "estimator/window_init.hpp"
+#include "estimator/window_standstill.hpp"
 
 #include <gtest/gtest.h>
 

@@ -1,7 +1,9 @@
 // marginalizeOldest's choice of factors: a landmark that ends with the oldest keyframe puts all of
-// its observations into the prior; one that the window re-anchors puts in only the link to its new
-// anchor, so that its later observations, which stay in the window, are not counted twice.
-#include "estimator/window_problem.hpp"
+// its observations into the prior; one that the window re-anchors puts in only the oldest
+// keyframe's own measurements and the link to its new anchor, so that its later measurements
+// (the new anchor's LiDAR range among them), which stay in the window, are not counted twice; the
+// previous prior always goes on. The terrain plane and the LiDAR ground-plane noise as well.
+#include "estimator/window_marginalize.hpp"
 
 #include <gtest/gtest.h>
 
@@ -10,6 +12,8 @@
 #include <vector>
 
 #include "common/so3.hpp"
+#include "estimator/window_solve.hpp"
+#include "factors/pose_prior_factor.hpp"
 
 namespace ovo::estimator {
 namespace {
@@ -63,9 +67,25 @@ WindowGauge gaugeOnTheOldest() {
   return g;
 }
 
+MarginalizationPlan ending(const std::vector<TrackId>& tracks) {
+  MarginalizationPlan plan;
+  plan.marginalized.insert(tracks.begin(), tracks.end());
+  return plan;
+}
+
+// The track re-anchored in keyframe kf_id of the map (link: its old inverse depth into the prior).
+MarginalizationPlan reanchored(const WindowMap& map, TrackId track, int kf_id) {
+  MarginalizationPlan plan;
+  const Keyframe& kf = *map.find(kf_id);
+  const Vec3 p_C = kf.pose().inverse() * *map.pointW(track, SE3::Identity());
+  plan.reanchor[track] = {kf_id, kf.observations.at(track).bearing_C, 1.0 / p_C.norm()};
+  plan.marginalized.insert(track);
+  return plan;
+}
+
 TEST(MarginalizeOldest, AnEndingLandmarkPutsAllItsObservationsIntoThePrior) {
   WindowMap map = threeKeyframesOneLandmark();
-  const auto info = marginalizeOldest(map, model(), gaugeOnTheOldest(), {{kTrack, -1}});
+  const auto info = marginalizeOldest(map, model(), gaugeOnTheOldest(), ending({kTrack}), nullptr);
   ASSERT_TRUE(info);
   EXPECT_TRUE(keeps(*info, *map.keyframes[1]));
   EXPECT_TRUE(keeps(*info, *map.keyframes[2]));
@@ -73,7 +93,8 @@ TEST(MarginalizeOldest, AnEndingLandmarkPutsAllItsObservationsIntoThePrior) {
 
 TEST(MarginalizeOldest, AReanchoredLandmarkPutsInOnlyTheLinkToItsNewAnchor) {
   WindowMap map = threeKeyframesOneLandmark();
-  const auto info = marginalizeOldest(map, model(), gaugeOnTheOldest(), {{kTrack, 11}});
+  const auto info =
+      marginalizeOldest(map, model(), gaugeOnTheOldest(), reanchored(map, kTrack, 11), nullptr);
   ASSERT_TRUE(info);
   EXPECT_TRUE(keeps(*info, *map.keyframes[1]));
   // The observation in keyframe 12 stays a factor of the re-anchored landmark, not in the prior.
@@ -83,8 +104,77 @@ TEST(MarginalizeOldest, AReanchoredLandmarkPutsInOnlyTheLinkToItsNewAnchor) {
 TEST(MarginalizeOldest, ALandmarkNotSelectedIsDropped) {
   WindowMap map = threeKeyframesOneLandmark();
   // Only the gauge's prior on the oldest pose is left: nothing about the other keyframes.
-  const auto info = marginalizeOldest(map, model(), gaugeOnTheOldest(), {});
+  const auto info = marginalizeOldest(map, model(), gaugeOnTheOldest(), {}, nullptr);
   EXPECT_TRUE(!info || (!keeps(*info, *map.keyframes[1]) && !keeps(*info, *map.keyframes[2])));
+}
+
+// The LiDAR range that the new anchor of a re-anchored landmark measures stays in the window: the
+// prior takes the gauge's pose prior, the oldest keyframe's own sighting and range, and the link
+// sighting (4 blocks), and after re-anchoring the window builds the new anchor's range against the
+// new landmark. Before the ledger the prior took that range too, and the window built it again.
+TEST(MarginalizeOldest, TheNewAnchorsLidarRangeIsCountedOnceInTheWindow) {
+  WindowMap map = threeKeyframesOneLandmark();
+  for (auto& kf : map.keyframes) {
+    LidarAssociation a;
+    a.track_id = kTrack;
+    a.range_m = (*map.pointW(kTrack, SE3::Identity()) - kf->pose().translation()).norm();
+    kf->lidar.push_back(a);
+  }
+  FactorLedger ledger;
+  const MarginalizationPlan plan = reanchored(map, kTrack, 11);
+  const auto info = marginalizeOldest(map, model(), gaugeOnTheOldest(), plan, &ledger);
+  ASSERT_TRUE(info);
+  // The gauge's pose prior, the oldest's range, the link sighting (the oldest's own sighting is
+  // the anchor: no factor).
+  int in_prior = 0;
+  for (const auto& [key, fate] : ledger.entries()) in_prior += fate == FactorLedger::Fate::kPrior;
+  EXPECT_EQ(in_prior, 3);
+  EXPECT_EQ(ledger.fate({FactorKind::kLidar, kTrack, 10}), FactorLedger::Fate::kPrior);
+  EXPECT_EQ(ledger.fate({FactorKind::kBearing, kTrack, 11}), FactorLedger::Fate::kPrior);
+  EXPECT_FALSE(ledger.fate({FactorKind::kLidar, kTrack, 11}));
+  EXPECT_FALSE(ledger.fate({FactorKind::kLidar, kTrack, 12}));
+  EXPECT_FALSE(ledger.fate({FactorKind::kBearing, kTrack, 12}));
+
+  map.keyframes.pop_front();
+  ledger.forgetBefore(11);
+  reanchorLandmarks(map, 10, plan);
+  std::vector<Keyframe*> kfs = {map.keyframes[0].get(), map.keyframes[1].get()};
+  int lidar_11 = 0, lidar_12 = 0, bearing_12 = 0;
+  for (const auto& f : buildFactors(kfs, map.landmarks, model(), {}, &ledger)) {
+    lidar_11 += f.kind == FactorKind::kLidar && f.kf_id == 11;
+    lidar_12 += f.kind == FactorKind::kLidar && f.kf_id == 12;
+    bearing_12 += f.kind == FactorKind::kBearing && f.kf_id == 12;
+  }
+  EXPECT_EQ(lidar_11, 1);
+  EXPECT_EQ(lidar_12, 1);
+  EXPECT_EQ(bearing_12, 1);
+}
+
+// A previous prior that touches none of the oldest keyframe's states goes into the new prior all
+// the same (without a gyro nothing else may link it): it used to be lost.
+TEST(MarginalizeOldest, ThePreviousPriorGoesOnWhenItTouchesNoneOfTheOldestStates) {
+  WindowMap map = threeKeyframesOneLandmark();
+  Keyframe& kf12 = *map.keyframes[2];
+  auto old_prior = std::make_shared<factors::MarginalizationInfo>();
+  factors::PosePriorFactor on12(kf12.pose(),
+                                factors::PosePriorFactor::gaugeInformation(1e-3, 1e-3, 1e-3));
+  old_prior->setQuaternionBlock(kf12.q_W_B);
+  ASSERT_TRUE(old_prior->addResidualBlock(&on12, nullptr, {kf12.q_W_B, kf12.p_W_B}, {}));
+  ASSERT_TRUE(old_prior->marginalize());
+  WindowGauge gauge;  // no pose prior: the old prior and the landmark
+  gauge.marginalization = old_prior;
+  FactorLedger ledger;
+  const auto info = marginalizeOldest(map, model(), gauge, ending({}), &ledger);
+  ASSERT_TRUE(info);
+  EXPECT_TRUE(keeps(*info, kf12));
+  // Its information on keyframe 12's position is all there: 1 / (1 mm)^2 per axis, against some
+  // 1e4 / m^2 that the landmark's sightings give.
+  const auto& kept = info->keptBlocks();
+  const auto sizes = info->keptBlockSizes();
+  int offset = 0;
+  for (std::size_t k = 0; k < kept.size() && kept[k] != kf12.p_W_B; ++k)
+    offset += info->isQuaternion(kept[k]) ? 3 : sizes[k];
+  EXPECT_GE(info->priorHessian()(offset, offset), 0.999e6);
 }
 
 // Two keyframes 1 m apart on flat ground, each anchoring ground points around it; the gauge holds
@@ -181,10 +271,10 @@ TEST(TerrainPlanes, TheOldestKeyframesPlaneGoesIntoThePriorWithIt) {
   std::vector<Keyframe*> kfs = {s.map.keyframes[0].get(), s.map.keyframes[1].get()};
   seedTerrain(kfs, s.model);
   EXPECT_EQ(kfs[1]->terrain[2], kfs[0]->terrain[2]);  // seeded from the previous keyframe
-  std::unordered_map<TrackId, int> ending;
+  MarginalizationPlan plan;
   for (const auto& [id, lm] : s.map.landmarks)
-    if (lm.anchor_kf == 0) ending[id] = -1;
-  const auto info = marginalizeOldest(s.map, s.model, s.gauge, ending);
+    if (lm.anchor_kf == 0) plan.marginalized.insert(id);
+  const auto info = marginalizeOldest(s.map, s.model, s.gauge, plan, nullptr);
   ASSERT_TRUE(info);
   const auto& kept = info->keptBlocks();
   EXPECT_NE(std::find(kept.begin(), kept.end(), kfs[1]->terrain), kept.end());
