@@ -259,9 +259,11 @@ int runCalibrateCamera(const CameraArgs& args) {
   for (const auto& rej : run.not_detected) spdlog::info("  rejected {}: {}", rej.image, rej.reason);
   for (const auto& rej : r.rejected) spdlog::info("  rejected {}: {}", rej.image, rej.reason);
   if (run.reference)
-    spdlog::info("  against {}: bearings within {:.4f} deg (RMS {:.4f} deg, roll {:.4f} deg)",
-                 args.reference, run.reference->max_deg, run.reference->rms_deg,
-                 run.reference->roll_deg);
+    spdlog::info(
+        "  against {}: bearings within {:.4f} deg (RMS {:.4f} deg) after a roll of {:.4f} deg "
+        "about the optical axis; {:.4f} deg without it",
+        args.reference, run.reference->max_deg, run.reference->rms_deg, run.reference->roll_deg,
+        run.reference->max_unaligned_deg);
   return 0;
 }
 

@@ -147,6 +147,7 @@ nlohmann::json reportJson(const CalibrationRun& run) {
                       {"max_bearing_error_deg", run.reference->max_deg},
                       {"rms_bearing_error_deg", run.reference->rms_deg},
                       {"roll_deg", run.reference->roll_deg},
+                      {"max_bearing_error_unaligned_deg", run.reference->max_unaligned_deg},
                       {"pixels", run.reference->pixels},
                       {"pixels_not_unprojected", run.reference->missing}};
   }

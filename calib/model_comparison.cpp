@@ -38,12 +38,15 @@ BearingComparison compareBearings(const camera::Camera& reference, const camera:
   }
   const Mat3 Rz = Eigen::AngleAxisd(eps, Vec3::UnitZ()).toRotationMatrix();
   double sum2 = 0.0;
+  for (const auto& [a, b] : pairs)
+    out.max_unaligned_deg =
+        std::max(out.max_unaligned_deg, std::acos(std::clamp(a.dot(b), -1.0, 1.0)) * 180.0 / M_PI);
   for (const auto& [a, b] : pairs) {
     const double angle = std::acos(std::clamp(a.dot(Rz * b), -1.0, 1.0)) * 180.0 / M_PI;
     out.max_deg = std::max(out.max_deg, angle);
     sum2 += angle * angle;
   }
-  if (out.missing > 0) out.max_deg = 180.0;
+  if (out.missing > 0) out.max_deg = out.max_unaligned_deg = 180.0;
   out.rms_deg = pairs.empty() ? 0.0 : std::sqrt(sum2 / pairs.size());
   out.roll_deg = eps * 180.0 / M_PI;
   return out;

@@ -11,9 +11,10 @@ namespace ovo::calib {
 struct BearingComparison {
   double max_deg = 0.0;  // largest angle between bearings after the roll alignment
   double rms_deg = 0.0;
-  double roll_deg = 0.0;  // rotation of `other`'s frame about z that aligns it (degrees)
-  int pixels = 0;         // pixels compared (valid in the reference)
-  int missing = 0;        // of those, pixels `other` cannot unproject
+  double roll_deg = 0.0;           // rotation of `other`'s frame about z that aligns it (degrees)
+  double max_unaligned_deg = 0.0;  // largest angle without the roll alignment
+  int pixels = 0;                  // pixels compared (valid in the reference)
+  int missing = 0;                 // of those, pixels `other` cannot unproject
 };
 
 /// Compares `other` to `reference` on a grid of pixels every step_px, valid in the reference;

@@ -5,12 +5,14 @@
 #include <ceres/problem.h>
 #include <ceres/rotation.h>
 #include <ceres/solver.h>
+#include <ceres/sphere_manifold.h>
 #include <fmt/format.h>
 
 #include <Eigen/Eigenvalues>
 #include <Eigen/SVD>
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numeric>
 
 #include "calib/projection.hpp"
@@ -325,6 +327,103 @@ RigCalibration calibrateRigFromRotations(const std::vector<CameraRotation>& rota
   return out;
 }
 
+namespace {
+
+double angleBetween(const Vec3& a, const Vec3& b) {
+  return std::atan2(a.cross(b).norm(), a.dot(b));
+}
+
+// The rotation alone that maps the previous bearings onto the current ones (Kabsch, matches
+// beyond three times the median residual dropped twice), and its median residual angle.
+Mat3 rotationOnly(const frontend::FrameMatches& m, const std::vector<std::uint8_t>& inliers,
+                  double* median_residual) {
+  std::vector<std::size_t> use;
+  for (std::size_t i = 0; i < m.size(); ++i)
+    if (inliers.empty() || inliers[i]) use.push_back(i);
+  Mat3 R = Mat3::Identity();
+  for (int round = 0; round < 3; ++round) {
+    std::vector<Vec3> a, b;
+    for (std::size_t i : use) {
+      a.push_back(m.bearings_prev[i]);
+      b.push_back(m.bearings_cur[i]);
+    }
+    if (a.size() < 3) break;
+    R = kabsch(a, b);
+    std::vector<double> res;
+    for (std::size_t i : use)
+      res.push_back(angleBetween(m.bearings_cur[i], R * m.bearings_prev[i]));
+    *median_residual = median(res);
+    std::vector<std::size_t> keep;
+    for (std::size_t k = 0; k < use.size(); ++k)
+      if (res[k] <= 3.0 * *median_residual) keep.push_back(use[k]);
+    use.swap(keep);
+  }
+  return R;
+}
+
+// Sine of the angle of the current bearing from the epipolar plane of (R = R0 Exp(delta), t).
+struct EpipolarResidual {
+  Vec3 prev, cur;
+  Mat3 R0;
+  template <typename T>
+  bool operator()(const T* delta, const T* t, T* residual) const {
+    const T p[3] = {T(prev.x()), T(prev.y()), T(prev.z())};
+    T rp[3], Rp[3];
+    ceres::AngleAxisRotatePoint(delta, p, rp);
+    for (int r = 0; r < 3; ++r) Rp[r] = R0(r, 0) * rp[0] + R0(r, 1) * rp[1] + R0(r, 2) * rp[2];
+    T n[3];
+    ceres::CrossProduct(t, Rp, n);
+    const T norm = ceres::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2] + T(1e-18));
+    residual[0] = (cur.x() * n[0] + cur.y() * n[1] + cur.z() * n[2]) / norm;
+    return true;
+  }
+};
+
+// (R, t) refined on the matches by the angular epipolar error (Huber at twice the RANSAC
+// threshold), from the frontend's estimate: the 8-point solution in RANSAC is noisy when the
+// baseline is short (a turn on the spot with the camera ahead of the turning axis), and its
+// rotation error trades with the translation.
+Mat3 refineRelativePose(const frontend::FrameMatches& m, const std::vector<std::uint8_t>& inliers,
+                        const Mat3& R0, const std::vector<Vec3>& t_starts, double threshold_rad) {
+  Mat3 best = R0;
+  double best_cost = std::numeric_limits<double>::infinity();
+  std::vector<std::size_t> use;
+  for (std::size_t i = 0; i < m.size(); ++i)
+    if (inliers.empty() || inliers[i]) use.push_back(i);
+  // At most 200 matches, spread over the list (the frontend buckets them over the image).
+  constexpr std::size_t kMaxMatches = 200;
+  if (use.size() > kMaxMatches) {
+    std::vector<std::size_t> sub;
+    for (std::size_t k = 0; k < kMaxMatches; ++k) sub.push_back(use[k * use.size() / kMaxMatches]);
+    use.swap(sub);
+  }
+  for (const Vec3& t_start : t_starts) {
+    double delta[3] = {0, 0, 0};
+    Vec3 t = t_start.normalized();
+    ceres::Problem problem;
+    for (std::size_t i : use) {
+      problem.AddResidualBlock(new ceres::AutoDiffCostFunction<EpipolarResidual, 1, 3, 3>(
+                                   new EpipolarResidual{m.bearings_prev[i], m.bearings_cur[i], R0}),
+                               new ceres::HuberLoss(2.0 * threshold_rad), delta, t.data());
+    }
+    if (problem.NumResidualBlocks() < 8) return R0;
+    problem.SetManifold(t.data(), new ceres::SphereManifold<3>);
+    ceres::Solver::Options so;
+    so.linear_solver_type = ceres::DENSE_QR;
+    so.max_num_iterations = 50;
+    so.logging_type = ceres::SILENT;
+    ceres::Solver::Summary summary;
+    ceres::Solve(so, &problem, &summary);
+    if (summary.final_cost < best_cost) {
+      best_cost = summary.final_cost;
+      best = R0 * so3::exp(Vec3(delta[0], delta[1], delta[2]));
+    }
+  }
+  return best;
+}
+
+}  // namespace
+
 std::vector<CameraRotation> frontendRotations(const RigInput& input) {
   if (!input.camera) fail("rig calibration: no camera model");
   frontend::FrontendOptions options = input.frontend;
@@ -337,9 +436,24 @@ std::vector<CameraRotation> frontendRotations(const RigInput& input) {
     const frontend::FrontendResult res = fe.process(t, input.frame_image(k));
     if (k > 0 && res.relative_pose) {
       using Status = frontend::RelativePoseResult::Status;
-      const auto s = res.relative_pose->status;
-      if (s == Status::kOk || s == Status::kLowParallax)
-        out.push_back({prev, t, res.relative_pose->R_cur_prev, res.relative_pose->num_inliers});
+      const auto& rp = *res.relative_pose;
+      if (rp.status == Status::kOk || rp.status == Status::kLowParallax) {
+        // (R, t) refined on the matches; with low parallax (the RANSAC's t is 0) from the
+        // rotation-only fit and six directions of t.
+        const bool has_t = rp.status == Status::kOk && rp.t_cur_prev.norm() > 0.5;
+        double rot_median = 0.0;
+        const Mat3 R_start =
+            has_t ? rp.R_cur_prev : rotationOnly(res.matches, rp.inliers, &rot_median);
+        std::vector<Vec3> starts;
+        if (has_t)
+          starts.push_back(rp.t_cur_prev);
+        else
+          for (int a = 0; a < 3; ++a)
+            for (double sgn : {1.0, -1.0}) starts.push_back(sgn * Vec3::Unit(a));
+        const Mat3 R_refined = refineRelativePose(res.matches, rp.inliers, R_start, starts,
+                                                  options.relative_pose.inlier_threshold_rad);
+        out.push_back({prev, t, R_refined, rp.num_inliers});
+      }
     }
     prev = t;
   }
