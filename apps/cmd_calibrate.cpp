@@ -347,7 +347,7 @@ int runCalibrateRig(const RigArgs& args) {
   if (!args.config.empty()) config = Config::load(args.config);
   config.applyOverrides(args.sets);
   const frontend::FrontendOptions frontend_options = frontend::readFrontendOptions(config);
-  config.markUsed("");
+  config.checkAllUsed();
   const io::Dataset data = io::loadDataset(args.dataset);
   if (!data.camera) fail("{}: the dataset has no camera calibration", args.dataset);
   if (data.imu.empty()) fail("{}: the dataset has no gyro samples (imu0/data.csv)", args.dataset);
@@ -357,7 +357,8 @@ int runCalibrateRig(const RigArgs& args) {
         "frames)",
         args.dataset, data.images.size());
   const fs::path rig_file = data.root / "rig.yaml";
-  const SE3 T_B_C = io::cameraExtrinsics(data.rig, std::nullopt, rig_file);
+  const SE3 T_B_C =
+      io::cameraExtrinsics(data.rig, camera::readSensorYamlExtrinsics(data.camera_file), rig_file);
 
   calib::RigCalibrationOptions options;
   options.max_offset_s = args.max_offset_s;
