@@ -12,10 +12,15 @@
 #include "common/config.hpp"
 #include "common/error.hpp"
 #include "io/dataset_writer.hpp"
+#include "sim/board_scene.hpp"
 #include "sim/scenario.hpp"
 #include "sim/simulation.hpp"
 
 namespace ovo::app {
+
+// The checkerboard scene (apps/cmd_simulate_board.cpp).
+int runBoardSimulation(const Config& config, const std::string& out, bool overwrite);
+
 namespace {
 
 struct SimulateArgs {
@@ -35,6 +40,7 @@ int runSimulate(const SimulateArgs& args) {
   if (args.seed) config.applyOverride(fmt::format("seed={}", *args.seed));
   if (args.frames) config.applyOverride(fmt::format("frames={}", *args.frames));
   if (args.duration_s) config.applyOverride(fmt::format("duration_s={}", *args.duration_s));
+  if (sim::isBoardScene(config)) return runBoardSimulation(config, args.out, args.overwrite);
   const sim::Scenario scenario = sim::readScenario(config);
   const sim::Simulation simulation(scenario);
   io::DatasetWriter writer(args.out, args.overwrite);
