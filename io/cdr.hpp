@@ -25,6 +25,8 @@ class WireReader {
   /// PLAIN_CDR2 BE/LE); others (parameter lists, delimited XCDR2) are an error. `where` starts
   /// every error message (e.g. "run.db3: topic /imu, message 12").
   WireReader(std::span<const std::uint8_t> bytes, Wire wire, std::string where);
+  /// The reader keeps a view of the bytes: a temporary would leave it dangling.
+  WireReader(std::vector<std::uint8_t>&&, Wire, std::string) = delete;
 
   std::uint8_t u8(const char* field);
   std::uint16_t u16(const char* field);

@@ -67,18 +67,23 @@ class Walker {
       r.fields[std::string(field.substr(0, eq))] = field.substr(eq + 1);
       p += field_len;
     }
-    const std::uint64_t data_len = u32At(p, "data_len");
+    const auto op = r.fields.find("op");
+    if (op == r.fields.end() || op->second.size() != 1)
+      failAt(pos, "record without a one-byte 'op' header field");
+    r.op = static_cast<std::uint8_t>(op->second[0]);
+    std::uint64_t data_len = u32At(p, "data_len");
     p += 4;
+    // Index data: librosbag (and Python's rosbag) read `count` entries of 12 bytes after the data
+    // length and go on from there, whatever the length says (old writers put other values in it).
+    const auto count = r.fields.find("count");
+    if (r.op == 0x04 && count != r.fields.end() && count->second.size() == 4)
+      data_len = std::uint64_t{le32(reinterpret_cast<const std::uint8_t*>(count->second.data()))} * 12;
     if (data_len > bytes_.size() - p)
       failAt(p - 4, fmt::format("record data of {} bytes runs past the end ({} bytes left): "
                                 "truncated or corrupt",
                                 data_len, bytes_.size() - p));
     r.data = bytes_.subspan(p, data_len);
     r.end = p + data_len;
-    const auto op = r.fields.find("op");
-    if (op == r.fields.end() || op->second.size() != 1)
-      failAt(pos, "record without a one-byte 'op' header field");
-    r.op = static_cast<std::uint8_t>(op->second[0]);
     return r;
   }
 
@@ -251,10 +256,6 @@ Ros1BagLayout checkRos1BagStructure(const fs::path& file) {
         const auto conn = fieldValue<std::uint32_t>(r, "conn", w);
         const auto count = fieldValue<std::uint32_t>(r, "count", w);
         if (ver != 1) w.failAt(pos, fmt::format("index data version {} (expected 1)", ver));
-        if (r.data.size() != std::uint64_t{count} * 12)
-          w.failAt(pos, fmt::format("index data of {} bytes for {} entries (expected 12 bytes "
-                                    "each)",
-                                    r.data.size(), count));
         for (std::uint32_t i = 0; i < count; ++i) {
           const std::uint64_t offset = le32(r.data.data() + 12 * i + 8);
           const auto it = chunk.conn_of.find(offset);

@@ -216,7 +216,7 @@ TEST(Cdr, MalformedLengthsAndHeadersAreErrors) {
   for (int i = 0; i < 7; ++i) b.num(0.0f);
   b.num<std::uint32_t>(0xFFFFFFF0u);
   EXPECT_CONTAINS(errorOf([&] { decodeLaserScan(b.v, Wire::kCdr, "x"); }),
-                  "sequence of 4294967280 float32");
+                  "sequence of 4294967280 elements");
   // A string longer than the message.
   Bytes s;
   s.raw({0x00, 0x01, 0x00, 0x00}).num<std::int32_t>(0).num<std::uint32_t>(0);
