@@ -219,7 +219,7 @@ Dataset loadBagDataset(const fs::path& path, const LoadOptions& options) {
   ds.camera_file = cameraCalibrationFile(ds.rig, rig_file);
   ds.camera = camera::loadCamera(ds.camera_file);
   std::optional<SE3> T_B_C_sensor;
-  if (ds.camera_file.filename() == "sensor.yaml")
+  if (ds.camera_file.extension() == ".yaml")  // sensor.yaml (EuRoC) or Kalibr: T_BS
     T_B_C_sensor = camera::readSensorYamlExtrinsics(ds.camera_file);
   ds.rig.T_B_C = cameraExtrinsics(ds.rig, T_B_C_sensor, rig_file);
 
