@@ -163,9 +163,7 @@ fs::path bagRigFile(const fs::path& bag_path, const fs::path& rig_option) {
        bag_path.string(), looked);
 }
 
-namespace {
-
-fs::path cameraCalibrationFile(const RigInfo& rig, const fs::path& rig_file) {
+fs::path rigCameraCalibration(const RigInfo& rig, const fs::path& rig_file) {
   if (!rig.camera_calibration.empty()) {
     if (!fs::is_regular_file(rig.camera_calibration))
       fail("{}: camera.calibration: {} does not exist", rig_file.string(),
@@ -180,6 +178,8 @@ fs::path cameraCalibrationFile(const RigInfo& rig, const fs::path& rig_file) {
        "relative to the rig file), or calib_results.txt / sensor.yaml beside it or in cam0/",
        rig_file.string());
 }
+
+namespace {
 
 // Files that may sit beside the bag (or inside a rosbag2 folder): ground truth, simulator truth.
 std::optional<fs::path> besideBag(const fs::path& bag_path, const fs::path& name) {
@@ -216,7 +216,7 @@ Dataset loadBagDataset(const fs::path& path, const LoadOptions& options) {
   ds.kind = "bag";
   const fs::path rig_file = bagRigFile(path, options.rig);
   ds.rig = readRigYaml(rig_file);
-  ds.camera_file = cameraCalibrationFile(ds.rig, rig_file);
+  ds.camera_file = rigCameraCalibration(ds.rig, rig_file);
   ds.camera = camera::loadCamera(ds.camera_file);
   std::optional<SE3> T_B_C_sensor;
   if (ds.camera_file.extension() == ".yaml")  // sensor.yaml (EuRoC) or Kalibr: T_BS

@@ -47,6 +47,11 @@ BagTopics chooseBagTopics(const bag::BagSource& bag, const std::string& topics_o
 std::filesystem::path bagRigFile(const std::filesystem::path& bag_path,
                                  const std::filesystem::path& rig_option);
 
+/// The camera calibration file of a rig file: the one its camera.calibration key names
+/// (relative to the rig file), else calib_results.txt or sensor.yaml beside it or in cam0/ beside
+/// it. Throws ovo::Error naming the rig file when there is none.
+std::filesystem::path rigCameraCalibration(const RigInfo& rig, const std::filesystem::path& rig_file);
+
 /// Reads the bag at `path` into a Dataset (kind "bag"); images are decoded when loaded
 /// (loadImageGrey). Throws ovo::Error naming the file, topic and what was expected.
 Dataset loadBagDataset(const std::filesystem::path& path, const LoadOptions& options);
