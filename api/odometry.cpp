@@ -76,10 +76,14 @@ LidarScan toScan(const Scan& s) {
 
 cv::Mat toGrey(const cv::Mat& image, const camera::Camera& cam) {
   cv::Mat grey;
-  if (image.type() == CV_8UC1) grey = image.clone();
-  else if (image.type() == CV_8UC3) cv::cvtColor(image, grey, cv::COLOR_BGR2GRAY);
-  else if (image.type() == CV_8UC4) cv::cvtColor(image, grey, cv::COLOR_BGRA2GRAY);
-  else fail("Odometry::addImage: expected an 8-bit grey, BGR or BGRA image");
+  if (image.type() == CV_8UC1)
+    grey = image.clone();
+  else if (image.type() == CV_8UC3)
+    cv::cvtColor(image, grey, cv::COLOR_BGR2GRAY);
+  else if (image.type() == CV_8UC4)
+    cv::cvtColor(image, grey, cv::COLOR_BGRA2GRAY);
+  else
+    fail("Odometry::addImage: expected an 8-bit grey, BGR or BGRA image");
   if (grey.cols != camera::width(cam) || grey.rows != camera::height(cam))
     fail("Odometry::addImage: the image is {}x{}, the camera calibration is for {}x{}", grey.cols,
          grey.rows, camera::width(cam), camera::height(cam));
@@ -152,10 +156,9 @@ Odometry::Odometry(const std::string& rig_file, const OdometryOptions& options,
   impl_->on_pose = std::move(on_pose);
   impl_->realtime = options.realtime;
   if (options.realtime) {
-    impl_->pipeline.emplace(*impl_->est, app::OnlineOptions{},
-                            [impl = impl_.get()](const app::OnlineOutput& o) {
-                              impl->deliver(toPose(o.estimate));
-                            });
+    impl_->pipeline.emplace(
+        *impl_->est, app::OnlineOptions{},
+        [impl = impl_.get()](const app::OnlineOutput& o) { impl->deliver(toPose(o.estimate)); });
     impl_->pipeline->start();
   }
 }

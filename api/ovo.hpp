@@ -31,7 +31,7 @@ struct Pose {
   std::int64_t t_ns = 0;
   std::array<double, 3> position_m{0, 0, 0};           // of B in W
   std::array<double, 4> orientation_xyzw{0, 0, 0, 1};  // rotation B -> W (Hamilton quaternion)
-  bool tracked = false;      // false: held or propagated (lost, standing still, starting up)
+  bool tracked = false;  // false: held or propagated (lost, standing still, starting up)
   bool is_keyframe = false;
 };
 

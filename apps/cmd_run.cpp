@@ -223,7 +223,8 @@ int runRun(const RunArgs& args) {
   if (args.json)
     std::cout << metrics.dump(2) << std::endl;
   else if (!args.quiet)
-    std::cout << runSummary(metrics, est->name(), args.dataset, out ? out->target() : std::filesystem::path())
+    std::cout << runSummary(metrics, est->name(), args.dataset,
+                            out ? out->target() : std::filesystem::path())
               << std::flush;
   return 0;
 }

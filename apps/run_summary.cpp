@@ -23,8 +23,8 @@ std::string runSummary(const nlohmann::json& m, const std::string& estimator,
   get(m, "frames_tracked", &tracked);
   double length = 0.0;
   get(m, "length_m", &length);
-  s += fmt::format("ovo run: {} on {}: {} frames ({} tracked), path {:.1f} m\n", estimator,
-                   dataset, frames, tracked, length);
+  s += fmt::format("ovo run: {} on {}: {} frames ({} tracked), path {:.1f} m\n", estimator, dataset,
+                   frames, tracked, length);
   double ate = 0, ate_pct = 0, yaw = 0, scale = 0;
   if (get(m, "ate_rmse_m", &ate)) {
     get(m, "ate_pct", &ate_pct);

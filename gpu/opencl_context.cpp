@@ -1,13 +1,12 @@
 #include "gpu/opencl_context.hpp"
 
+#include <spdlog/spdlog.h>
 #include <unistd.h>
 
 #include <cstdlib>
 #include <filesystem>
 #include <system_error>
 #include <vector>
-
-#include <spdlog/spdlog.h>
 
 #include "common/error.hpp"
 

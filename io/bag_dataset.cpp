@@ -42,7 +42,8 @@ struct Role {
 };
 
 const Role kRoles[] = {
-    {"camera", "sensor_msgs/Image or sensor_msgs/CompressedImage",
+    {"camera",
+     "sensor_msgs/Image or sensor_msgs/CompressedImage",
      {MsgType::kImage, MsgType::kCompressedImage}},
     {"imu", "sensor_msgs/Imu", {MsgType::kImu}},
     {"lidar", "sensor_msgs/LaserScan", {MsgType::kLaserScan}},
@@ -65,9 +66,10 @@ void checkTopic(const BagSource& bag, const Role& role, const Topic& t) {
   if (t.encoding == "ros1" && !t.md5.empty() && t.md5 != "*") {
     const std::string expected = bag::ros1Md5Sum(ros::msgTypeOf(t.type));
     if (t.md5 != expected)
-      fail("{}: topic {}: {} with MD5 sum {}, but the sensor_msgs definition ovo decodes has {}: "
-           "another version of the message",
-           bag.path().string(), t.name, t.type, t.md5, expected);
+      fail(
+          "{}: topic {}: {} with MD5 sum {}, but the sensor_msgs definition ovo decodes has {}: "
+          "another version of the message",
+          bag.path().string(), t.name, t.type, t.md5, expected);
   }
   if (t.count == 0) fail("{}: topic {} ({}) has no messages", bag.path().string(), t.name, t.type);
 }
@@ -85,12 +87,12 @@ BagTopics parseBagTopics(const std::string& spec, BagTopics* explicit_keys) {
       fail("--topics '{}': entry '{}': expected key=topic with key camera, imu or lidar", spec,
            entry);
     const std::string key = entry.substr(0, eq), value = entry.substr(eq + 1);
-    std::string* slot = key == "camera" ? &topics.camera
-                        : key == "imu"  ? &topics.imu
+    std::string* slot = key == "camera"  ? &topics.camera
+                        : key == "imu"   ? &topics.imu
                         : key == "lidar" ? &topics.lidar
                                          : nullptr;
-    std::string* mark = key == "camera" ? &given.camera
-                        : key == "imu"  ? &given.imu
+    std::string* mark = key == "camera"  ? &given.camera
+                        : key == "imu"   ? &given.imu
                         : key == "lidar" ? &given.lidar
                                          : nullptr;
     if (!slot) fail("--topics '{}': unknown key '{}' (expected camera, imu or lidar)", spec, key);
@@ -157,10 +159,11 @@ fs::path bagRigFile(const fs::path& bag_path, const fs::path& rig_option) {
     if (fs::is_regular_file(p)) return p;
   std::string looked;
   for (const fs::path& p : places) looked += " " + p.string();
-  fail("{}: a bag carries no camera calibration: give --rig rig.yaml (extrinsics and noise, "
-       "camera.calibration: the calibration file), or put a rig.yaml beside the bag (looked "
-       "for:{})",
-       bag_path.string(), looked);
+  fail(
+      "{}: a bag carries no camera calibration: give --rig rig.yaml (extrinsics and noise, "
+      "camera.calibration: the calibration file), or put a rig.yaml beside the bag (looked "
+      "for:{})",
+      bag_path.string(), looked);
 }
 
 fs::path rigCameraCalibration(const RigInfo& rig, const fs::path& rig_file) {
@@ -174,9 +177,10 @@ fs::path rigCameraCalibration(const RigInfo& rig, const fs::path& rig_file) {
   for (const fs::path& p : {dir / "calib_results.txt", dir / "sensor.yaml",
                             dir / "cam0" / "calib_results.txt", dir / "cam0" / "sensor.yaml"})
     if (fs::is_regular_file(p)) return p;
-  fail("{}: no camera calibration: expected a key camera.calibration (the calibration file, "
-       "relative to the rig file), or calib_results.txt / sensor.yaml beside it or in cam0/",
-       rig_file.string());
+  fail(
+      "{}: no camera calibration: expected a key camera.calibration (the calibration file, "
+      "relative to the rig file), or calib_results.txt / sensor.yaml beside it or in cam0/",
+      rig_file.string());
 }
 
 namespace {
@@ -191,7 +195,9 @@ std::optional<fs::path> besideBag(const fs::path& bag_path, const fs::path& name
   return std::nullopt;
 }
 
-ros::Wire wireOf(const Topic& t) { return t.encoding == "ros1" ? ros::Wire::kRos1 : ros::Wire::kCdr; }
+ros::Wire wireOf(const Topic& t) {
+  return t.encoding == "ros1" ? ros::Wire::kRos1 : ros::Wire::kCdr;
+}
 
 // Sorts by time and drops repeated stamps (keeping the first); returns how many were dropped.
 template <typename T, typename Stamp>
@@ -245,7 +251,9 @@ Dataset loadBagDataset(const fs::path& path, const LoadOptions& options) {
   for (const MessageRef& ref : bag->messages()) {
     const Topic& t = bag->topics()[ref.topic];
     if (ref.topic != camera_topic && ref.topic != imu_topic && ref.topic != lidar_topic) continue;
-    std::size_t& counter = ref.topic == camera_topic ? n_image : ref.topic == imu_topic ? n_imu : n_scan;
+    std::size_t& counter = ref.topic == camera_topic ? n_image
+                           : ref.topic == imu_topic  ? n_imu
+                                                     : n_scan;
     const std::string where = bag->describe(ref, counter);
     const std::vector<std::uint8_t> bytes = bag->payload(ref);
     Timestamp stamp = 0;
@@ -258,9 +266,10 @@ Dataset loadBagDataset(const fs::path& path, const LoadOptions& options) {
       stamp = m.header.stamp_ns;
       for (int k = 0; k < 3; ++k)
         if (!std::isfinite(m.angular_velocity[k]) || std::abs(m.angular_velocity[k]) > 1000.0)
-          fail("{}: angular_velocity {} = {} rad/s is no gyro reading (expected a finite value "
-               "of at most 1000 rad/s)",
-               where, "xyz"[k], m.angular_velocity[k]);
+          fail(
+              "{}: angular_velocity {} = {} rad/s is no gyro reading (expected a finite value "
+              "of at most 1000 rad/s)",
+              where, "xyz"[k], m.angular_velocity[k]);
       imu.push_back(ros::imuSample(m, stamp));
       imu_times.push_back({stamp, ref.log_time_ns, counter});
     } else {
@@ -304,9 +313,10 @@ Dataset loadBagDataset(const fs::path& path, const LoadOptions& options) {
   }
   auto dropped_note = [&](std::size_t n, const std::string& topic) {
     if (n > 0)
-      ds.notes.push_back(fmt::format("{}: topic {}: {} messages repeat an earlier time stamp and "
-                                     "were left out",
-                                     path.string(), topic, n));
+      ds.notes.push_back(
+          fmt::format("{}: topic {}: {} messages repeat an earlier time stamp and "
+                      "were left out",
+                      path.string(), topic, n));
   };
   dropped_note(sortUnique(ds.images, [](const ImageEntry& e) { return e.t_ns; }), topics.camera);
   dropped_note(sortUnique(imu, [](const ImuSample& s) { return s.t_ns; }), topics.imu);

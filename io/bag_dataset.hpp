@@ -50,7 +50,8 @@ std::filesystem::path bagRigFile(const std::filesystem::path& bag_path,
 /// The camera calibration file of a rig file: the one its camera.calibration key names
 /// (relative to the rig file), else calib_results.txt or sensor.yaml beside it or in cam0/ beside
 /// it. Throws ovo::Error naming the rig file when there is none.
-std::filesystem::path rigCameraCalibration(const RigInfo& rig, const std::filesystem::path& rig_file);
+std::filesystem::path rigCameraCalibration(const RigInfo& rig,
+                                           const std::filesystem::path& rig_file);
 
 /// Reads the bag at `path` into a Dataset (kind "bag"); images are decoded when loaded
 /// (loadImageGrey). Throws ovo::Error naming the file, topic and what was expected.

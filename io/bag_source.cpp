@@ -1,7 +1,8 @@
 #include "io/bag_source.hpp"
 
-#include <algorithm>
 #include <fmt/format.h>
+
+#include <algorithm>
 
 #include "common/error.hpp"
 #include "io/rosbag1_reader.hpp"
@@ -12,10 +13,9 @@ namespace ovo::io::bag {
 namespace fs = std::filesystem;
 
 void BagSource::finishListing() {
-  std::stable_sort(messages_.begin(), messages_.end(),
-                   [](const MessageRef& a, const MessageRef& b) {
-                     return a.log_time_ns < b.log_time_ns;
-                   });
+  std::stable_sort(
+      messages_.begin(), messages_.end(),
+      [](const MessageRef& a, const MessageRef& b) { return a.log_time_ns < b.log_time_ns; });
   for (Topic& t : topics_) t.count = 0;
   for (const MessageRef& m : messages_) ++topics_.at(m.topic).count;
 }

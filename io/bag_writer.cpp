@@ -20,9 +20,12 @@ BagFormat parseBagFormat(const std::string& name) {
 
 fs::path bagPathIn(const fs::path& dir, const std::string& stem, BagFormat format) {
   switch (format) {
-    case BagFormat::kRos1: return dir / (stem + ".bag");
-    case BagFormat::kSqlite3: return dir / stem;
-    case BagFormat::kMcap: return dir / (stem + ".mcap");
+    case BagFormat::kRos1:
+      return dir / (stem + ".bag");
+    case BagFormat::kSqlite3:
+      return dir / stem;
+    case BagFormat::kMcap:
+      return dir / (stem + ".mcap");
   }
   return dir / stem;
 }
@@ -30,9 +33,12 @@ fs::path bagPathIn(const fs::path& dir, const std::string& stem, BagFormat forma
 std::unique_ptr<BagWriter> BagWriter::create(BagFormat format, const fs::path& path,
                                              const std::string& compression) {
   switch (format) {
-    case BagFormat::kRos1: return makeRos1BagWriter(path, compression);
-    case BagFormat::kSqlite3: return makeSqlite3BagWriter(path);
-    case BagFormat::kMcap: return makeMcapBagWriter(path, compression);
+    case BagFormat::kRos1:
+      return makeRos1BagWriter(path, compression);
+    case BagFormat::kSqlite3:
+      return makeSqlite3BagWriter(path);
+    case BagFormat::kMcap:
+      return makeMcapBagWriter(path, compression);
   }
   fail("BagWriter::create: unknown format");
 }

@@ -40,10 +40,20 @@ WireReader::WireReader(std::span<const std::uint8_t> bytes, Wire wire, std::stri
                 bytes_.size());
   const unsigned id = (unsigned{bytes_[0]} << 8) | bytes_[1];
   switch (id) {
-    case 0x0000: big_endian_ = true; break;   // CDR_BE
-    case 0x0001: big_endian_ = false; break;  // CDR_LE
-    case 0x0006: big_endian_ = true; max_align_ = 4; break;   // PLAIN_CDR2_BE
-    case 0x0007: big_endian_ = false; max_align_ = 4; break;  // PLAIN_CDR2_LE
+    case 0x0000:
+      big_endian_ = true;
+      break;  // CDR_BE
+    case 0x0001:
+      big_endian_ = false;
+      break;  // CDR_LE
+    case 0x0006:
+      big_endian_ = true;
+      max_align_ = 4;
+      break;  // PLAIN_CDR2_BE
+    case 0x0007:
+      big_endian_ = false;
+      max_align_ = 4;
+      break;  // PLAIN_CDR2_LE
     default:
       ::ovo::fail(
           "{}: CDR representation 0x{:04x} is not supported (expected 0x0000/0x0001 plain CDR "
@@ -93,8 +103,7 @@ double WireReader::f64(const char* field) { return std::bit_cast<double>(u64(fie
 
 std::string WireReader::string(const char* field) {
   const std::uint32_t n = u32(field);
-  if (n > remaining())
-    fail(field, fmt::format("string of {} bytes, only {} left", n, remaining()));
+  if (n > remaining()) fail(field, fmt::format("string of {} bytes, only {} left", n, remaining()));
   const char* p = reinterpret_cast<const char*>(take(n, field));
   if (wire_ == Wire::kCdr && n > 0) {
     if (p[n - 1] != '\0') fail(field, "CDR string without its terminating NUL");
@@ -206,8 +215,8 @@ void WireWriter::floatSequence(const std::vector<float>& v) {
 }
 
 void WireWriter::header(const Header& h) {
-  const std::int64_t sec = h.stamp_ns >= 0 ? h.stamp_ns / 1'000'000'000
-                                           : -((-h.stamp_ns + 999'999'999) / 1'000'000'000);
+  const std::int64_t sec =
+      h.stamp_ns >= 0 ? h.stamp_ns / 1'000'000'000 : -((-h.stamp_ns + 999'999'999) / 1'000'000'000);
   const auto nsec = static_cast<std::uint32_t>(h.stamp_ns - sec * 1'000'000'000);
   if (wire_ == Wire::kRos1) {
     if (sec < 0 || sec > 0xffffffffLL)
@@ -363,11 +372,16 @@ constexpr const char* kVector3Def =
 
 std::string ros2TypeName(MsgType type) {
   switch (type) {
-    case MsgType::kImage: return "sensor_msgs/msg/Image";
-    case MsgType::kCompressedImage: return "sensor_msgs/msg/CompressedImage";
-    case MsgType::kImu: return "sensor_msgs/msg/Imu";
-    case MsgType::kLaserScan: return "sensor_msgs/msg/LaserScan";
-    case MsgType::kOther: break;
+    case MsgType::kImage:
+      return "sensor_msgs/msg/Image";
+    case MsgType::kCompressedImage:
+      return "sensor_msgs/msg/CompressedImage";
+    case MsgType::kImu:
+      return "sensor_msgs/msg/Imu";
+    case MsgType::kLaserScan:
+      return "sensor_msgs/msg/LaserScan";
+    case MsgType::kOther:
+      break;
   }
   fail("ros2TypeName: not a sensor_msgs type ovo writes");
 }

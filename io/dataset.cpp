@@ -395,9 +395,10 @@ Dataset loadDataset(const fs::path& root, const LoadOptions& options) {
   if (!fs::is_directory(root)) fail("{}: dataset folder not found", root.string());
   if (auto bag = singleBagIn(root)) return loadBagDataset(*bag, options);
   if (!options.rig.empty() || !options.topics.empty())
-    fail("{}: --rig and --topics apply to bags (.bag, .db3, .mcap, a rosbag2 folder); a dataset "
-         "folder has its own rig.yaml",
-         root.string());
+    fail(
+        "{}: --rig and --topics apply to bags (.bag, .db3, .mcap, a rosbag2 folder); a dataset "
+        "folder has its own rig.yaml",
+        root.string());
   if (fs::is_directory(root / "mav0" / "cam0")) return loadOvo(root, root / "mav0");
   if (fs::is_directory(root / "cam0")) return loadOvo(root, root);
   if (fs::is_directory(root / "image_0")) {

@@ -56,7 +56,8 @@ DatasetWriter::DatasetWriter(const fs::path& out, bool overwrite,
   const fs::path dir = stagingDir() / "cam0" / (bag_format ? "" : "data");
   fs::create_directories(dir, ec);
   if (ec) fail("cannot create '{}': {}", dir.string(), ec.message());
-  if (bag_format) bag_ = BagWriter::create(*bag_format, bagPathIn(stagingDir(), "run", *bag_format));
+  if (bag_format)
+    bag_ = BagWriter::create(*bag_format, bagPathIn(stagingDir(), "run", *bag_format));
 }
 
 DatasetWriter::~DatasetWriter() = default;

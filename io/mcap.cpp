@@ -109,22 +109,38 @@ class Cursor {
 
 const char* opName(std::uint8_t op) {
   switch (op) {
-    case kHeader: return "Header";
-    case kFooter: return "Footer";
-    case kSchema: return "Schema";
-    case kChannel: return "Channel";
-    case kMessage: return "Message";
-    case kChunk: return "Chunk";
-    case kMessageIndex: return "Message Index";
-    case kChunkIndex: return "Chunk Index";
-    case kAttachment: return "Attachment";
-    case kAttachmentIndex: return "Attachment Index";
-    case kStatistics: return "Statistics";
-    case kMetadata: return "Metadata";
-    case kMetadataIndex: return "Metadata Index";
-    case kSummaryOffset: return "Summary Offset";
-    case kDataEnd: return "Data End";
-    default: return "unknown";
+    case kHeader:
+      return "Header";
+    case kFooter:
+      return "Footer";
+    case kSchema:
+      return "Schema";
+    case kChannel:
+      return "Channel";
+    case kMessage:
+      return "Message";
+    case kChunk:
+      return "Chunk";
+    case kMessageIndex:
+      return "Message Index";
+    case kChunkIndex:
+      return "Chunk Index";
+    case kAttachment:
+      return "Attachment";
+    case kAttachmentIndex:
+      return "Attachment Index";
+    case kStatistics:
+      return "Statistics";
+    case kMetadata:
+      return "Metadata";
+    case kMetadataIndex:
+      return "Metadata Index";
+    case kSummaryOffset:
+      return "Summary Offset";
+    case kDataEnd:
+      return "Data End";
+    default:
+      return "unknown";
   }
 }
 
@@ -141,16 +157,18 @@ RecordView recordAt(std::span<const std::uint8_t> bytes, std::uint64_t pos,
   r.offset = pos;
   const std::uint64_t left = bytes.size() - pos;
   if (left < 9)
-    fail("{}: byte {}: {} ends inside a record header ({} bytes left, a record needs 9): the file "
-         "is truncated",
-         where, base + pos, container, left);
+    fail(
+        "{}: byte {}: {} ends inside a record header ({} bytes left, a record needs 9): the file "
+        "is truncated",
+        where, base + pos, container, left);
   r.op = bytes[pos];
   std::uint64_t len = 0;
   for (int i = 0; i < 8; ++i) len |= std::uint64_t{bytes[pos + 1 + i]} << (8 * i);
   if (len > left - 9)
-    fail("{}: byte {}: {} record (opcode 0x{:02x}) of {} bytes runs past the end of the {} ({} "
-         "bytes left): the file is truncated or corrupt",
-         where, base + pos, opName(r.op), r.op, len, container, left - 9);
+    fail(
+        "{}: byte {}: {} record (opcode 0x{:02x}) of {} bytes runs past the end of the {} ({} "
+        "bytes left): the file is truncated or corrupt",
+        where, base + pos, opName(r.op), r.op, len, container, left - 9);
   r.content = bytes.subspan(pos + 9, len);
   return r;
 }
@@ -220,14 +238,15 @@ std::vector<std::uint8_t> decompress(const std::string& compression,
     std::size_t in_pos = 0, out_pos = 0, hint = 1;
     while (hint != 0 && in_pos < data.size()) {
       std::size_t in_n = data.size() - in_pos, out_n = out.size() - out_pos;
-      hint = LZ4F_decompress(ctx, out.data() + out_pos, &out_n, data.data() + in_pos, &in_n,
-                             nullptr);
+      hint =
+          LZ4F_decompress(ctx, out.data() + out_pos, &out_n, data.data() + in_pos, &in_n, nullptr);
       if (LZ4F_isError(hint)) {
         const std::string msg = LZ4F_getErrorName(hint);
         LZ4F_freeDecompressionContext(ctx);
-        fail("{}: lz4 decompression failed: {} (corrupt chunk, or larger than its header's {} "
-             "bytes)",
-             where, msg, uncompressed_size);
+        fail(
+            "{}: lz4 decompression failed: {} (corrupt chunk, or larger than its header's {} "
+            "bytes)",
+            where, msg, uncompressed_size);
       }
       in_pos += in_n;
       out_pos += out_n;
@@ -246,8 +265,7 @@ std::vector<std::uint8_t> decompress(const std::string& compression,
 // ---------------------------------------------------------------------------------------------
 // Reader
 
-Reader::Reader(const fs::path& file)
-    : file_(file), map_(std::make_unique<MappedFile>(file)) {
+Reader::Reader(const fs::path& file) : file_(file), map_(std::make_unique<MappedFile>(file)) {
   data_ = map_->bytes().data();
   size_ = map_->size();
   walk();
@@ -344,11 +362,13 @@ void Reader::walk() {
             fail("{}: Footer: summary_start {} is not before the footer at byte {}", where,
                  summary_start, r.offset);
           // From the summary's first byte through the footer's summary_offset_start field.
-          const std::uint32_t crc = crc32(all.subspan(summary_start, r.offset + 9 + 16 - summary_start));
+          const std::uint32_t crc =
+              crc32(all.subspan(summary_start, r.offset + 9 + 16 - summary_start));
           if (crc != summary_crc)
-            fail("{}: the summary section's CRC-32 is {:08x}, the Footer says {:08x}: the file is "
-                 "corrupt",
-                 where, crc, summary_crc);
+            fail(
+                "{}: the summary section's CRC-32 is {:08x}, the Footer says {:08x}: the file is "
+                "corrupt",
+                where, crc, summary_crc);
         }
         break;
       }
@@ -359,9 +379,10 @@ void Reader::walk() {
     pos += 9 + r.content.size();
   }
   if (size_ - pos != kMagic.size() || !std::equal(kMagic.begin(), kMagic.end(), all.begin() + pos))
-    fail("{}: byte {}: expected the closing magic bytes right after the Footer record ({} bytes "
-         "left)",
-         where, pos, size_ - pos);
+    fail(
+        "{}: byte {}: expected the closing magic bytes right after the Footer record ({} bytes "
+        "left)",
+        where, pos, size_ - pos);
 }
 
 void Reader::readChunk(std::uint64_t record_offset, std::span<const std::uint8_t> content) {
@@ -378,7 +399,8 @@ void Reader::readChunk(std::uint64_t record_offset, std::span<const std::uint8_t
   info.records_offset = c.absolute();
   const auto compressed = c.bytes(info.compressed_size, "records");
   const std::uint32_t index = static_cast<std::uint32_t>(chunks_.size());
-  const std::string chunk_where = fmt::format("{}: chunk {} at byte {}", where, index, record_offset);
+  const std::string chunk_where =
+      fmt::format("{}: chunk {} at byte {}", where, index, record_offset);
   const std::vector<std::uint8_t> records =
       decompress(info.compression, compressed, info.uncompressed_size, chunk_where);
   if (info.uncompressed_crc != 0) {
@@ -414,16 +436,18 @@ void Reader::readChunk(std::uint64_t record_offset, std::span<const std::uint8_t
         m.data_offset = rc.absolute();
         m.data_size = rc.remaining();
         if (!channels_.count(m.channel_id))
-          fail("{}: byte {} of the records: a message on channel {}, which no Channel record "
-               "before it defines",
-               chunk_where, pos, m.channel_id);
+          fail(
+              "{}: byte {} of the records: a message on channel {}, which no Channel record "
+              "before it defines",
+              chunk_where, pos, m.channel_id);
         messages_.push_back(m);
         break;
       }
       default:
-        fail("{}: byte {} of the records: a {} record (opcode 0x{:02x}) inside a chunk (expected "
-             "Schema, Channel or Message)",
-             chunk_where, pos, opName(r.op), r.op);
+        fail(
+            "{}: byte {} of the records: a {} record (opcode 0x{:02x}) inside a chunk (expected "
+            "Schema, Channel or Message)",
+            chunk_where, pos, opName(r.op), r.op);
     }
     pos += 9 + r.content.size();
   }
@@ -432,11 +456,11 @@ void Reader::readChunk(std::uint64_t record_offset, std::span<const std::uint8_t
 std::shared_ptr<const std::vector<std::uint8_t>> Reader::chunkRecords(std::uint32_t chunk) const {
   if (cached_chunk_ == chunk) return cached_records_;
   const ChunkInfo& info = chunks_.at(chunk);
-  auto records = std::make_shared<std::vector<std::uint8_t>>(
-      decompress(info.compression,
-                 std::span<const std::uint8_t>(data_ + info.records_offset, info.compressed_size),
-                 info.uncompressed_size,
-                 fmt::format("{}: chunk {} at byte {}", file_.string(), chunk, info.record_offset)));
+  auto records = std::make_shared<std::vector<std::uint8_t>>(decompress(
+      info.compression,
+      std::span<const std::uint8_t>(data_ + info.records_offset, info.compressed_size),
+      info.uncompressed_size,
+      fmt::format("{}: chunk {} at byte {}", file_.string(), chunk, info.record_offset)));
   cached_chunk_ = chunk;
   cached_records_ = records;
   return records;
@@ -466,7 +490,8 @@ class RecordBuilder {
   explicit RecordBuilder(std::uint8_t op) { out_.push_back(op), out_.resize(9); }
   template <typename T>
   RecordBuilder& scalar(T v) {
-    for (std::size_t i = 0; i < sizeof(T); ++i) out_.push_back(static_cast<std::uint8_t>(v >> (8 * i)));
+    for (std::size_t i = 0; i < sizeof(T); ++i)
+      out_.push_back(static_cast<std::uint8_t>(v >> (8 * i)));
     return *this;
   }
   RecordBuilder& u8(std::uint8_t v) { return scalar(v); }
@@ -515,7 +540,8 @@ Writer::Writer(const fs::path& file, std::string profile, std::string compressio
 Writer::~Writer() = default;
 
 void Writer::emit(std::span<const std::uint8_t> bytes) {
-  out_.write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
+  out_.write(reinterpret_cast<const char*>(bytes.data()),
+             static_cast<std::streamsize>(bytes.size()));
   if (in_data_) data_crc_ = crc32(bytes, data_crc_);
   offset_ += bytes.size();
 }
@@ -552,7 +578,8 @@ std::uint16_t Writer::addChannel(std::uint16_t schema_id, const std::string& top
   return id;
 }
 
-void Writer::addMetadata(const std::string& name, const std::map<std::string, std::string>& values) {
+void Writer::addMetadata(const std::string& name,
+                         const std::map<std::string, std::string>& values) {
   flushChunk();
   const auto record = RecordBuilder(kMetadata).string(name).stringMap(values).finish();
   metadata_index_records_.push_back(
@@ -588,9 +615,10 @@ void Writer::flushChunk() {
   std::vector<std::uint8_t> compressed;
   if (compression_ == "zstd") {
     compressed.resize(ZSTD_compressBound(chunk_.size()));
-    const std::size_t n = ZSTD_compress(compressed.data(), compressed.size(), chunk_.data(),
-                                        chunk_.size(), 3);
-    if (ZSTD_isError(n)) fail("{}: zstd compression failed: {}", file_.string(), ZSTD_getErrorName(n));
+    const std::size_t n =
+        ZSTD_compress(compressed.data(), compressed.size(), chunk_.data(), chunk_.size(), 3);
+    if (ZSTD_isError(n))
+      fail("{}: zstd compression failed: {}", file_.string(), ZSTD_getErrorName(n));
     compressed.resize(n);
   } else if (compression_ == "lz4") {
     LZ4F_preferences_t prefs{};
@@ -598,7 +626,8 @@ void Writer::flushChunk() {
     compressed.resize(LZ4F_compressFrameBound(chunk_.size(), &prefs));
     const std::size_t n = LZ4F_compressFrame(compressed.data(), compressed.size(), chunk_.data(),
                                              chunk_.size(), &prefs);
-    if (LZ4F_isError(n)) fail("{}: lz4 compression failed: {}", file_.string(), LZ4F_getErrorName(n));
+    if (LZ4F_isError(n))
+      fail("{}: lz4 compression failed: {}", file_.string(), LZ4F_getErrorName(n));
     compressed.resize(n);
   } else {
     compressed = chunk_;
@@ -652,7 +681,8 @@ void Writer::close() {
       emit(r);
       summary_crc = crc32(r, summary_crc);
     }
-    offsets.push_back(RecordBuilder(kSummaryOffset).u8(op).u64(start).u64(offset_ - start).finish());
+    offsets.push_back(
+        RecordBuilder(kSummaryOffset).u8(op).u64(start).u64(offset_ - start).finish());
   };
   group(kSchema, schema_records_);
   group(kChannel, channel_records_);

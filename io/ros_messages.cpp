@@ -22,11 +22,16 @@ MsgType msgTypeOf(std::string_view name) {
 
 const char* msgTypeName(MsgType type) {
   switch (type) {
-    case MsgType::kImage: return "sensor_msgs/Image";
-    case MsgType::kCompressedImage: return "sensor_msgs/CompressedImage";
-    case MsgType::kImu: return "sensor_msgs/Imu";
-    case MsgType::kLaserScan: return "sensor_msgs/LaserScan";
-    case MsgType::kOther: break;
+    case MsgType::kImage:
+      return "sensor_msgs/Image";
+    case MsgType::kCompressedImage:
+      return "sensor_msgs/CompressedImage";
+    case MsgType::kImu:
+      return "sensor_msgs/Imu";
+    case MsgType::kLaserScan:
+      return "sensor_msgs/LaserScan";
+    case MsgType::kOther:
+      break;
   }
   return "another type";
 }
@@ -41,13 +46,20 @@ struct EncodingInfo {
 };
 
 bool encodingInfo(const std::string& e, EncodingInfo* info) {
-  if (e == "mono8" || e == "8UC1") *info = {CV_8UC1, 1, 1, -1};
-  else if (e == "rgb8") *info = {CV_8UC3, 3, 1, cv::COLOR_RGB2GRAY};
-  else if (e == "bgr8" || e == "8UC3") *info = {CV_8UC3, 3, 1, cv::COLOR_BGR2GRAY};
-  else if (e == "rgba8") *info = {CV_8UC4, 4, 1, cv::COLOR_RGBA2GRAY};
-  else if (e == "bgra8" || e == "8UC4") *info = {CV_8UC4, 4, 1, cv::COLOR_BGRA2GRAY};
-  else if (e == "mono16" || e == "16UC1") *info = {CV_16UC1, 1, 2, -1};
-  else return false;
+  if (e == "mono8" || e == "8UC1")
+    *info = {CV_8UC1, 1, 1, -1};
+  else if (e == "rgb8")
+    *info = {CV_8UC3, 3, 1, cv::COLOR_RGB2GRAY};
+  else if (e == "bgr8" || e == "8UC3")
+    *info = {CV_8UC3, 3, 1, cv::COLOR_BGR2GRAY};
+  else if (e == "rgba8")
+    *info = {CV_8UC4, 4, 1, cv::COLOR_RGBA2GRAY};
+  else if (e == "bgra8" || e == "8UC4")
+    *info = {CV_8UC4, 4, 1, cv::COLOR_BGRA2GRAY};
+  else if (e == "mono16" || e == "16UC1")
+    *info = {CV_16UC1, 1, 2, -1};
+  else
+    return false;
   return true;
 }
 
@@ -64,7 +76,8 @@ cv::Mat greyImage(const Image& image, const std::string& where) {
     fail("{}: image size {}x{}: expected 1 to 100000 pixels a side", where, image.width,
          image.height);
   const std::uint64_t row_bytes =
-      std::uint64_t{image.width} * static_cast<std::uint64_t>(info.channels * info.bytes_per_channel);
+      std::uint64_t{image.width} *
+      static_cast<std::uint64_t>(info.channels * info.bytes_per_channel);
   if (image.step < row_bytes)
     fail("{}: step {} bytes is less than a row of {} {} pixels ({} bytes)", where, image.step,
          image.width, image.encoding, row_bytes);
@@ -82,7 +95,8 @@ cv::Mat greyImage(const Image& image, const std::string& where) {
     if ((image.is_bigendian != 0) != host_big)
       for (int r = 0; r < native.rows; ++r) {
         auto* p = native.ptr<std::uint16_t>(r);
-        for (int c = 0; c < native.cols; ++c) p[c] = static_cast<std::uint16_t>((p[c] >> 8) | (p[c] << 8));
+        for (int c = 0; c < native.cols; ++c)
+          p[c] = static_cast<std::uint16_t>((p[c] >> 8) | (p[c] << 8));
       }
     native.convertTo(grey, CV_8U, 1.0 / 256.0);
   } else if (info.to_grey >= 0) {

@@ -61,9 +61,9 @@ struct Imu {
 struct LaserScan {
   Header header;
   double angle_min = 0, angle_max = 0, angle_increment = 0;  // [rad]
-  double time_increment = 0;  // [s] between beams
-  double scan_time = 0;       // [s] between scans
-  double range_min = 0, range_max = 0;  // [m]
+  double time_increment = 0;                                 // [s] between beams
+  double scan_time = 0;                                      // [s] between scans
+  double range_min = 0, range_max = 0;                       // [m]
   std::vector<float> ranges;
   std::vector<float> intensities;
 };

@@ -42,7 +42,8 @@ struct Record {
 
 class Walker {
  public:
-  Walker(std::span<const std::uint8_t> bytes, std::string where) : bytes_(bytes), where_(std::move(where)) {}
+  Walker(std::span<const std::uint8_t> bytes, std::string where)
+      : bytes_(bytes), where_(std::move(where)) {}
 
   // The record at `pos`; errors name `where_` and the offset.
   Record recordAt(std::uint64_t pos) const {
@@ -77,7 +78,8 @@ class Walker {
     // length and go on from there, whatever the length says (old writers put other values in it).
     const auto count = r.fields.find("count");
     if (r.op == 0x04 && count != r.fields.end() && count->second.size() == 4)
-      data_len = std::uint64_t{le32(reinterpret_cast<const std::uint8_t*>(count->second.data()))} * 12;
+      data_len =
+          std::uint64_t{le32(reinterpret_cast<const std::uint8_t*>(count->second.data()))} * 12;
     if (data_len > bytes_.size() - p)
       failAt(p - 4, fmt::format("record data of {} bytes runs past the end ({} bytes left): "
                                 "truncated or corrupt",
@@ -109,11 +111,13 @@ template <typename T>
 T fieldValue(const Record& r, const char* name, const Walker& w) {
   const auto it = r.fields.find(name);
   if (it == r.fields.end() || it->second.size() != sizeof(T))
-    w.failAt(r.offset, fmt::format("op 0x{:02x} record without a {}-byte '{}' field", r.op,
-                                   sizeof(T), name));
+    w.failAt(r.offset,
+             fmt::format("op 0x{:02x} record without a {}-byte '{}' field", r.op, sizeof(T), name));
   const auto* p = reinterpret_cast<const std::uint8_t*>(it->second.data());
-  if constexpr (sizeof(T) == 4) return static_cast<T>(le32(p));
-  else return static_cast<T>(le64(p));
+  if constexpr (sizeof(T) == 4)
+    return static_cast<T>(le32(p));
+  else
+    return static_cast<T>(le64(p));
 }
 
 std::string stringField(const Record& r, const char* name, const Walker& w) {
@@ -137,10 +141,10 @@ std::vector<std::uint8_t> decompressChunk(const std::string& compression,
   std::vector<std::uint8_t> out(static_cast<std::size_t>(size));
   if (compression == "bz2") {
     unsigned int out_len = static_cast<unsigned int>(out.size());
-    const int rc = BZ2_bzBuffToBuffDecompress(
-        reinterpret_cast<char*>(out.data()), &out_len,
-        const_cast<char*>(reinterpret_cast<const char*>(data.data())),
-        static_cast<unsigned int>(data.size()), 0, 0);
+    const int rc =
+        BZ2_bzBuffToBuffDecompress(reinterpret_cast<char*>(out.data()), &out_len,
+                                   const_cast<char*>(reinterpret_cast<const char*>(data.data())),
+                                   static_cast<unsigned int>(data.size()), 0, 0);
     if (rc != BZ_OK || out_len != size)
       fail("{}: bz2 chunk does not decompress to its {} bytes (bzip2 error {}): corrupt", where,
            size, rc);
@@ -154,8 +158,8 @@ std::vector<std::uint8_t> decompressChunk(const std::string& compression,
     bool error = false;
     while (hint != 0 && in_pos < data.size()) {
       std::size_t in_n = data.size() - in_pos, out_n = out.size() - out_pos;
-      hint = LZ4F_decompress(ctx, out.data() + out_pos, &out_n, data.data() + in_pos, &in_n,
-                             nullptr);
+      hint =
+          LZ4F_decompress(ctx, out.data() + out_pos, &out_n, data.data() + in_pos, &in_n, nullptr);
       if (LZ4F_isError(hint)) {
         error = true;
         break;
@@ -179,8 +183,7 @@ Ros1BagLayout checkRos1BagStructure(const fs::path& file) {
   const MappedFile map(file);
   const std::span<const std::uint8_t> all = map.bytes();
   const std::string where = file.string();
-  if (all.size() < kMagic.size() ||
-      std::memcmp(all.data(), kMagic.data(), kMagic.size()) != 0)
+  if (all.size() < kMagic.size() || std::memcmp(all.data(), kMagic.data(), kMagic.size()) != 0)
     fail("{}: not a ROS 1 bag of format 2.0 (expected '#ROSBAG V2.0' at its start)", where);
   const Walker w(all, where);
 
@@ -197,15 +200,16 @@ Ros1BagLayout checkRos1BagStructure(const fs::path& file) {
     fail("{}: the bag is not indexed (its recording was interrupted): run `rosbag reindex` on it",
          where);
   if (layout.index_pos >= all.size())
-    fail("{}: the bag header's index position {} is past the end of the file ({} bytes): the file "
-         "is truncated",
-         where, layout.index_pos, all.size());
+    fail(
+        "{}: the bag header's index position {} is past the end of the file ({} bytes): the file "
+        "is truncated",
+        where, layout.index_pos, all.size());
 
   // Every top-level record, in file order.
   struct ChunkSeen {
-    std::set<std::uint64_t> message_offsets;            // message records in the chunk
-    std::map<std::uint64_t, std::uint32_t> conn_of;     // their connection
-    std::uint32_t index_records = 0;                    // index data records after it
+    std::set<std::uint64_t> message_offsets;         // message records in the chunk
+    std::map<std::uint64_t, std::uint32_t> conn_of;  // their connection
+    std::uint32_t index_records = 0;                 // index data records after it
   };
   std::map<std::uint64_t, ChunkSeen> chunks;  // by chunk record position
   std::optional<std::uint64_t> last_chunk;
@@ -220,7 +224,8 @@ Ros1BagLayout checkRos1BagStructure(const fs::path& file) {
         const std::string compression = stringField(r, "compression", w);
         const std::uint64_t size = fieldValue<std::uint32_t>(r, "size", w);
         const std::string chunk_where = fmt::format("{}: chunk at byte {}", where, pos);
-        const std::vector<std::uint8_t> unpacked = decompressChunk(compression, r.data, size, chunk_where);
+        const std::vector<std::uint8_t> unpacked =
+            decompressChunk(compression, r.data, size, chunk_where);
         const Walker inner(compression == "none" ? r.data : std::span<const std::uint8_t>(unpacked),
                            chunk_where + " (uncompressed)");
         ChunkSeen seen;
@@ -278,8 +283,8 @@ Ros1BagLayout checkRos1BagStructure(const fs::path& file) {
         if (ver != 1) w.failAt(pos, fmt::format("chunk info version {} (expected 1)", ver));
         const auto chunk = chunks.find(chunk_pos);
         if (chunk == chunks.end())
-          w.failAt(pos, fmt::format("chunk info points at byte {}, where there is no chunk",
-                                    chunk_pos));
+          w.failAt(pos,
+                   fmt::format("chunk info points at byte {}, where there is no chunk", chunk_pos));
         if (r.data.size() != std::uint64_t{count} * 8)
           w.failAt(pos, fmt::format("chunk info of {} bytes for {} connections (expected 8 bytes "
                                     "each)",
@@ -310,9 +315,10 @@ Ros1BagLayout checkRos1BagStructure(const fs::path& file) {
   for (std::uint64_t i = 0; i < std::uint64_t{layout.conn_count} + layout.chunk_count; ++i, ++it) {
     const std::uint8_t expected = i < layout.conn_count ? kOpConnection : kOpChunkInfo;
     if (it == op_at.end() || it->second != expected)
-      fail("{}: the index section at byte {} does not hold the {} connection and {} chunk info "
-           "records the bag header announces: the file is truncated or corrupt",
-           where, layout.index_pos, layout.conn_count, layout.chunk_count);
+      fail(
+          "{}: the index section at byte {} does not hold the {} connection and {} chunk info "
+          "records the bag header announces: the file is truncated or corrupt",
+          where, layout.index_pos, layout.conn_count, layout.chunk_count);
   }
   return layout;
 }

@@ -1,8 +1,8 @@
 #include "io/rosbag1_reader.hpp"
 
+#include <ros/serialization.h>
 #include <rosbag/bag.h>
 #include <rosbag/view.h>
-#include <ros/serialization.h>
 #include <sensor_msgs/CompressedImage.h>
 #include <sensor_msgs/Image.h>
 #include <sensor_msgs/Imu.h>
@@ -21,11 +21,16 @@ namespace fs = std::filesystem;
 std::string ros1Md5Sum(ros::MsgType type) {
   using ::ros::message_traits::MD5Sum;
   switch (type) {
-    case ros::MsgType::kImage: return MD5Sum<sensor_msgs::Image>::value();
-    case ros::MsgType::kCompressedImage: return MD5Sum<sensor_msgs::CompressedImage>::value();
-    case ros::MsgType::kImu: return MD5Sum<sensor_msgs::Imu>::value();
-    case ros::MsgType::kLaserScan: return MD5Sum<sensor_msgs::LaserScan>::value();
-    case ros::MsgType::kOther: break;
+    case ros::MsgType::kImage:
+      return MD5Sum<sensor_msgs::Image>::value();
+    case ros::MsgType::kCompressedImage:
+      return MD5Sum<sensor_msgs::CompressedImage>::value();
+    case ros::MsgType::kImu:
+      return MD5Sum<sensor_msgs::Imu>::value();
+    case ros::MsgType::kLaserScan:
+      return MD5Sum<sensor_msgs::LaserScan>::value();
+    case ros::MsgType::kOther:
+      break;
   }
   return "";
 }

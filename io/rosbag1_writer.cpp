@@ -24,8 +24,10 @@ class Ros1Writer : public BagWriter {
   Ros1Writer(const std::filesystem::path& path, const std::string& compression) : path_(path) {
     try {
       bag_.open(path.string(), rosbag::bagmode::Write);
-      if (compression == "bz2") bag_.setCompression(rosbag::compression::BZ2);
-      else if (compression == "lz4") bag_.setCompression(rosbag::compression::LZ4);
+      if (compression == "bz2")
+        bag_.setCompression(rosbag::compression::BZ2);
+      else if (compression == "lz4")
+        bag_.setCompression(rosbag::compression::LZ4);
       else if (!compression.empty() && compression != "none")
         fail("{}: ROS 1 bag compression '{}' (expected none, bz2 or lz4)", path.string(),
              compression);

@@ -168,8 +168,7 @@ class Sqlite3Bag : public BagSource {
 
 class McapBag : public BagSource {
  public:
-  McapBag(const fs::path& path, const std::vector<fs::path>& files)
-      : BagSource(path, "MCAP") {
+  McapBag(const fs::path& path, const std::vector<fs::path>& files) : BagSource(path, "MCAP") {
     std::map<std::string, std::uint32_t> by_name;
     for (std::size_t f = 0; f < files.size(); ++f) {
       readers_.push_back(std::make_unique<mcap::Reader>(files[f]));
@@ -244,13 +243,13 @@ std::unique_ptr<BagSource> openRosbag2Folder(const fs::path& folder) {
     fail("{}: rosbag2_bagfile_information: {}", where, e.what());
   }
   if (!compression.empty() || (!mode.empty() && mode != "NONE"))
-    fail("{}: rosbag2 compression '{}' (mode '{}') is not supported: expected an uncompressed "
-         "bag (MCAP's own chunk compression is fine); decompress it with `ros2 bag convert`",
-         where, compression, mode);
+    fail(
+        "{}: rosbag2 compression '{}' (mode '{}') is not supported: expected an uncompressed "
+        "bag (MCAP's own chunk compression is fine); decompress it with `ros2 bag convert`",
+        where, compression, mode);
   if (files.empty()) fail("{}: relative_file_paths lists no files", where);
   for (const fs::path& f : files)
-    if (!fs::is_regular_file(f))
-      fail("{}: lists {}, which does not exist", where, f.string());
+    if (!fs::is_regular_file(f)) fail("{}: lists {}, which does not exist", where, f.string());
   if (storage == "sqlite3") return std::make_unique<Sqlite3Bag>(folder, files);
   if (storage == "mcap") return std::make_unique<McapBag>(folder, files);
   fail("{}: storage_identifier '{}': expected sqlite3 or mcap", where, storage);

@@ -1,9 +1,8 @@
 // The ROS 2 BagWriters (io/bag_writer.hpp): rosbag2 sqlite3 (schema version 4, as rosbag2 Jazzy
 // writes it: a folder with metadata.yaml version 8 and one .db3) and MCAP (ros2 profile, ros2msg
 // schemas, CDR messages), both from the CDR encoders in io/cdr.hpp.
-#include <sqlite3.h>
-
 #include <fmt/format.h>
+#include <sqlite3.h>
 
 #include <fstream>
 #include <limits>
@@ -80,16 +79,20 @@ class Sqlite3Writer : public CdrWriter {
     exec("PRAGMA synchronous = OFF");
     exec("CREATE TABLE schema(schema_version INTEGER PRIMARY KEY,ros_distro TEXT NOT NULL)");
     exec("INSERT INTO schema VALUES (4, 'jazzy')");
-    exec("CREATE TABLE metadata(id INTEGER PRIMARY KEY,metadata_version INTEGER NOT NULL,metadata "
-         "TEXT NOT NULL)");
-    exec("CREATE TABLE topics(id INTEGER PRIMARY KEY,name TEXT NOT NULL,type TEXT NOT "
-         "NULL,serialization_format TEXT NOT NULL,offered_qos_profiles TEXT NOT "
-         "NULL,type_description_hash TEXT NOT NULL)");
-    exec("CREATE TABLE message_definitions(id INTEGER PRIMARY KEY,topic_type TEXT NOT "
-         "NULL,encoding TEXT NOT NULL,encoded_message_definition TEXT NOT "
-         "NULL,type_description_hash TEXT NOT NULL)");
-    exec("CREATE TABLE messages(id INTEGER PRIMARY KEY,topic_id INTEGER NOT NULL,timestamp "
-         "INTEGER NOT NULL, data BLOB NOT NULL)");
+    exec(
+        "CREATE TABLE metadata(id INTEGER PRIMARY KEY,metadata_version INTEGER NOT NULL,metadata "
+        "TEXT NOT NULL)");
+    exec(
+        "CREATE TABLE topics(id INTEGER PRIMARY KEY,name TEXT NOT NULL,type TEXT NOT "
+        "NULL,serialization_format TEXT NOT NULL,offered_qos_profiles TEXT NOT "
+        "NULL,type_description_hash TEXT NOT NULL)");
+    exec(
+        "CREATE TABLE message_definitions(id INTEGER PRIMARY KEY,topic_type TEXT NOT "
+        "NULL,encoding TEXT NOT NULL,encoded_message_definition TEXT NOT "
+        "NULL,type_description_hash TEXT NOT NULL)");
+    exec(
+        "CREATE TABLE messages(id INTEGER PRIMARY KEY,topic_id INTEGER NOT NULL,timestamp "
+        "INTEGER NOT NULL, data BLOB NOT NULL)");
     exec("CREATE INDEX timestamp_idx ON messages (timestamp ASC)");
     exec("BEGIN TRANSACTION");
     if (sqlite3_prepare_v2(db_, "INSERT INTO messages (topic_id, timestamp, data) VALUES (?, ?, ?)",
@@ -132,10 +135,11 @@ class Sqlite3Writer : public CdrWriter {
       const auto id = static_cast<std::int64_t>(topic_ids_.size() + 1);
       exec(fmt::format("INSERT INTO topics VALUES ({}, '{}', '{}', 'cdr', '{}', '')", id, topic,
                        type_name, kQos));
-      exec(fmt::format("INSERT INTO message_definitions (topic_type, encoding, "
-                       "encoded_message_definition, type_description_hash) VALUES ('{}', "
-                       "'ros2msg', '{}', '')",
-                       type_name, ros::ros2MessageDefinition(type)));
+      exec(
+          fmt::format("INSERT INTO message_definitions (topic_type, encoding, "
+                      "encoded_message_definition, type_description_hash) VALUES ('{}', "
+                      "'ros2msg', '{}', '')",
+                      type_name, ros::ros2MessageDefinition(type)));
       it = topic_ids_.emplace(topic, id).first;
       topic_types_[topic] = type_name;
     }
@@ -171,7 +175,8 @@ class Sqlite3Writer : public CdrWriter {
     y += fmt::format("  message_count: {}\n  topics_with_message_count:\n", total_);
     for (const auto& [topic, n] : counts_)
       y += fmt::format(
-          "    - topic_metadata:\n        name: {}\n        type: {}\n        serialization_format: "
+          "    - topic_metadata:\n        name: {}\n        type: {}\n        "
+          "serialization_format: "
           "cdr\n        offered_qos_profiles: {}\n        type_description_hash: \"\"\n      "
           "message_count: {}\n",
           topic, topic_types_.at(topic), yamlQuoted(kQos), n);
@@ -192,7 +197,8 @@ class Sqlite3Writer : public CdrWriter {
   std::map<std::string, std::int64_t> topic_ids_;
   std::map<std::string, std::string> topic_types_;
   std::map<std::string, std::uint64_t> counts_;
-  Timestamp start_ = std::numeric_limits<Timestamp>::max(), end_ = std::numeric_limits<Timestamp>::min();
+  Timestamp start_ = std::numeric_limits<Timestamp>::max(),
+            end_ = std::numeric_limits<Timestamp>::min();
   std::uint64_t total_ = 0;
   bool closed_ = false;
 };

@@ -8,14 +8,13 @@
 // DIR is the ovo/EuRoC layout `ovo simulate` writes: cam0/data.csv + cam0/data/*.png,
 // imu0/data.csv (t_ns, w_x, w_y, w_z, a_x, a_y, a_z), lidar0/data.csv (t_ns, angle_min,
 // angle_increment, range_min, range_max, ranges...), rig.yaml. Standard error gets a summary.
-#include <ovo/ovo.hpp>
-
 #include <algorithm>
 #include <cstdio>
 #include <fstream>
 #include <iostream>
 #include <map>
 #include <opencv2/imgcodecs.hpp>
+#include <ovo/ovo.hpp>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -50,8 +49,10 @@ int main(int argc, char** argv) {
   bool realtime = false;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
-    if (a == "--realtime") realtime = true;
-    else if (i + 1 < argc && a.rfind("--", 0) == 0) args[a] = argv[++i];
+    if (a == "--realtime")
+      realtime = true;
+    else if (i + 1 < argc && a.rfind("--", 0) == 0)
+      args[a] = argv[++i];
     else {
       std::cerr << "usage: online_consumer --dataset DIR [--rig FILE] [--estimator NAME] "
                    "[--realtime] [--out FILE]\n";
@@ -76,7 +77,8 @@ int main(int argc, char** argv) {
   const auto gyro = readCsv(dir + "/imu0/data.csv");
   const auto scans = readCsv(dir + "/lidar0/data.csv");
   std::vector<Event> events;
-  for (std::size_t i = 0; i < images.size(); ++i) events.push_back({std::stoll(images[i][0]), 0, i});
+  for (std::size_t i = 0; i < images.size(); ++i)
+    events.push_back({std::stoll(images[i][0]), 0, i});
   for (std::size_t i = 0; i < scans.size(); ++i) events.push_back({std::stoll(scans[i][0]), 1, i});
   for (std::size_t i = 0; i < gyro.size(); ++i) events.push_back({std::stoll(gyro[i][0]), 2, i});
   std::stable_sort(events.begin(), events.end(), [](const Event& a, const Event& b) {
@@ -92,7 +94,8 @@ int main(int argc, char** argv) {
     ovo::Odometry odometry(rig, options, [](const ovo::Pose& p) { printPose(stdout, p); });
     for (const Event& e : events) {
       if (e.order == 0) {
-        const cv::Mat image = cv::imread(dir + "/cam0/data/" + images[e.row][1], cv::IMREAD_GRAYSCALE);
+        const cv::Mat image =
+            cv::imread(dir + "/cam0/data/" + images[e.row][1], cv::IMREAD_GRAYSCALE);
         if (image.empty()) throw std::runtime_error("cannot read image " + images[e.row][1]);
         odometry.addImage(e.t_ns, image);
       } else if (e.order == 1) {

@@ -32,8 +32,7 @@ std::string q(const fs::path& p) {
 // Simulated once per test program, outside tempDir() (which each test empties).
 const fs::path& workDir() {
   static const fs::path dir = [] {
-    const fs::path d =
-        fs::temp_directory_path() / ("ovo_bag_test_" + std::to_string(::getpid()));
+    const fs::path d = fs::temp_directory_path() / ("ovo_bag_test_" + std::to_string(::getpid()));
     fs::remove_all(d);
     fs::create_directories(d);
     return d;
@@ -45,7 +44,8 @@ TEST(BagRun, FolderRos1Db3AndMcapGiveIdenticalTrajectories) {
   if (!fs::exists(test::ovoBinaryPath())) GTEST_SKIP() << "ovo not built";
   const fs::path dir = workDir();
   // 2.5 s of the default scenario (the robot drives off after 0.5 s): 51 frames.
-  const std::string sim = "simulate --config " + q(test::sourcePath("configs/sim/vineyard_row.yaml")) +
+  const std::string sim = "simulate --config " +
+                          q(test::sourcePath("configs/sim/vineyard_row.yaml")) +
                           " --set duration_s=2.5 --out ";
   std::string err;
   ASSERT_EQ(test::runOvo(sim + q(dir / "folder"), nullptr, &err), 0) << err;
@@ -79,14 +79,16 @@ TEST(BagRun, FolderRos1Db3AndMcapGiveIdenticalTrajectories) {
     EXPECT_CONTAINS(out, "report: " + (dir / ("run_" + name) / "report.html").string());
     const std::string trajectory = slurp(dir / ("run_" + name) / "trajectory.txt");
     EXPECT_GT(std::count(trajectory.begin(), trajectory.end(), '\n'), 45);
-    if (reference.empty()) reference = trajectory;
-    else EXPECT_TRUE(trajectory == reference) << "trajectory.txt differs from the folder's";
+    if (reference.empty())
+      reference = trajectory;
+    else
+      EXPECT_TRUE(trajectory == reference) << "trajectory.txt differs from the folder's";
   }
   // The ROS 1 bag converts back into the folder's measurements.
-  ASSERT_EQ(test::runOvo("convert --in " + q(dir / "rosbag" / "run.bag") + " --out " +
-                             q(dir / "back"),
-                         nullptr, &err),
-            0)
+  ASSERT_EQ(
+      test::runOvo("convert --in " + q(dir / "rosbag" / "run.bag") + " --out " + q(dir / "back"),
+                   nullptr, &err),
+      0)
       << err;
   EXPECT_EQ(slurp(dir / "back" / "imu0" / "data.csv"), slurp(dir / "folder" / "imu0" / "data.csv"));
   EXPECT_EQ(slurp(dir / "back" / "cam0" / "data.csv"), slurp(dir / "folder" / "cam0" / "data.csv"));
@@ -103,9 +105,9 @@ TEST(BagRun, BadBagsEndTheCommandWithAnError) {
   EXPECT_CONTAINS(err, (dir / "cut.mcap").string());
   EXPECT_CONTAINS(err, "truncated");
   test::writeTextFile(dir / "x.bag", "#ROSBAG V2.0\n");
-  EXPECT_EQ(test::runOvo("convert --in " + q(dir / "x.bag") + " --out " + q(dir / "o"), nullptr,
-                         &err),
-            2);
+  EXPECT_EQ(
+      test::runOvo("convert --in " + q(dir / "x.bag") + " --out " + q(dir / "o"), nullptr, &err),
+      2);
   EXPECT_CONTAINS(err, (dir / "x.bag").string());
   EXPECT_FALSE(fs::exists(dir / "o"));  // nothing half-written
   OVO_REQUIRE_DATA("rosbag-fixtures/ros1_laserscan_hokuyo/demo.bag");

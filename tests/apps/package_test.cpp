@@ -59,9 +59,8 @@ TEST(Package, ExampleConsumerBuildsAgainstTheInstalledPackageAndRuns) {
                            work, &output),
             0)
       << output;
-  ASSERT_EQ(test::runShell(cmake + " --build '" + (work / "build").string() + "' -j2", work,
-                           &output),
-            0)
+  ASSERT_EQ(
+      test::runShell(cmake + " --build '" + (work / "build").string() + "' -j2", work, &output), 0)
       << output;
 
   // 1.5 s of the default scenario, through the example and through `ovo run`.

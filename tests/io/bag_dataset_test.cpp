@@ -147,21 +147,29 @@ TEST(BagDataset, TopicsByTypeOrByName) {
   EXPECT_CONTAINS(right.images[0].path.string(), "/right#0");
   const Dataset no_imu = loadDataset(bag, {rig, "camera=/left,imu=none"});
   EXPECT_TRUE(no_imu.imu.empty());
-  EXPECT_CONTAINS(errorOf([&] { loadDataset(bag, {rig, "camera=/imu"}); }),
+  EXPECT_CONTAINS(errorOf([&] {
+                    loadDataset(bag, {rig, "camera=/imu"});
+                  }),
                   "topic /imu is sensor_msgs/msg/Imu; camera expects sensor_msgs/Image or "
                   "sensor_msgs/CompressedImage");
-  EXPECT_CONTAINS(errorOf([&] { loadDataset(bag, {rig, "camera=/left,lidar=/imu"}); }),
+  EXPECT_CONTAINS(errorOf([&] {
+                    loadDataset(bag, {rig, "camera=/left,lidar=/imu"});
+                  }),
                   "lidar expects sensor_msgs/LaserScan");
   const std::string missing = errorOf([&] { loadDataset(bag, {rig, "camera=/nope"}); });
   EXPECT_CONTAINS(missing, "--topics camera=/nope: no such topic in the bag");
   EXPECT_CONTAINS(missing, "/imu [sensor_msgs/msg/Imu, 3 messages]");
   EXPECT_CONTAINS(errorOf([&] { loadDataset(bag, {rig, "cam=/left"}); }), "unknown key 'cam'");
   EXPECT_CONTAINS(errorOf([&] { loadDataset(bag, {rig, "camera"}); }), "expected key=topic");
-  EXPECT_CONTAINS(errorOf([&] { loadDataset(bag, {rig, "camera=/left,camera=/right"}); }),
+  EXPECT_CONTAINS(errorOf([&] {
+                    loadDataset(bag, {rig, "camera=/left,camera=/right"});
+                  }),
                   "given twice");
   EXPECT_CONTAINS(errorOf([&] { loadDataset(bag, {rig, "camera=none"}); }), "needs a camera");
   // --topics and --rig belong to bags.
-  EXPECT_CONTAINS(errorOf([&] { loadDataset(dir / "rigdir", {rig, ""}); }),
+  EXPECT_CONTAINS(errorOf([&] {
+                    loadDataset(dir / "rigdir", {rig, ""});
+                  }),
                   "--rig and --topics apply to bags");
 }
 
@@ -171,7 +179,9 @@ TEST(BagDataset, RigAndCalibrationAreFoundOrNamed) {
   const std::string no_rig = errorOf([&] { loadDataset(bag, {"", "camera=/left"}); });
   EXPECT_CONTAINS(no_rig, "a bag carries no camera calibration: give --rig rig.yaml");
   EXPECT_CONTAINS(no_rig, (dir / "rig.yaml").string());
-  EXPECT_CONTAINS(errorOf([&] { loadDataset(bag, {dir / "x.yaml", "camera=/left"}); }),
+  EXPECT_CONTAINS(errorOf([&] {
+                    loadDataset(bag, {dir / "x.yaml", "camera=/left"});
+                  }),
                   "--rig " + (dir / "x.yaml").string() + ": file not found");
   // camera.calibration names the file, relative to the rig file.
   fs::create_directories(dir / "calib");
@@ -180,11 +190,15 @@ TEST(BagDataset, RigAndCalibrationAreFoundOrNamed) {
   const Dataset ds = loadDataset(bag, {"", "camera=/left"});  // rig.yaml beside the bag
   EXPECT_EQ(ds.camera_file, dir / "calib" / "cam.yaml");
   test::writeTextFile(dir / "rig.yaml", "camera: {calibration: calib/none.yaml}\n");
-  EXPECT_CONTAINS(errorOf([&] { loadDataset(bag, {"", "camera=/left"}); }),
-                  "camera.calibration: " + (dir / "calib" / "none.yaml").string() +
-                      " does not exist");
+  EXPECT_CONTAINS(
+      errorOf([&] {
+        loadDataset(bag, {"", "camera=/left"});
+      }),
+      "camera.calibration: " + (dir / "calib" / "none.yaml").string() + " does not exist");
   test::writeTextFile(dir / "rig.yaml", "camera: {rate_hz: 20}\n");
-  EXPECT_CONTAINS(errorOf([&] { loadDataset(bag, {"", "camera=/left"}); }),
+  EXPECT_CONTAINS(errorOf([&] {
+                    loadDataset(bag, {"", "camera=/left"});
+                  }),
                   "no camera calibration: expected a key camera.calibration");
 }
 
@@ -210,7 +224,8 @@ TEST(BagDataset, RealRos1BagsAsDatasets) {
   const fs::path dir = test::tempDir();
   // ros_numpy's bag: two camera topics, all header stamps 0 (record times used, with a note).
   test::writeTextFile(dir / "rig.yaml", "camera: {calibration: cam.yaml}\n");
-  camera::writeSensorYaml(dir / "cam.yaml", camera::PinholeRadtanCamera(200, 200, 180, 120, 360, 240),
+  camera::writeSensorYaml(dir / "cam.yaml",
+                          camera::PinholeRadtanCamera(200, 200, 180, 120, 360, 240),
                           SE3::Identity(), 20.0);
   const fs::path numpy = test::sharedData("rosbag-fixtures/ros1_image_ros_numpy/test.bag");
   const std::string two = errorOf([&] { loadDataset(numpy, {dir / "rig.yaml", ""}); });
@@ -229,12 +244,16 @@ TEST(BagDataset, RealRos1BagsAsDatasets) {
                   "the image is 2x2, but the camera calibration");
   // The hokuyo bag has no camera.
   const fs::path hokuyo = test::sharedData("rosbag-fixtures/ros1_laserscan_hokuyo/demo.bag");
-  EXPECT_CONTAINS(errorOf([&] { loadDataset(hokuyo, {dir / "rig.yaml", ""}); }),
+  EXPECT_CONTAINS(errorOf([&] {
+                    loadDataset(hokuyo, {dir / "rig.yaml", ""});
+                  }),
                   "no camera topic (sensor_msgs/Image or sensor_msgs/CompressedImage with "
                   "messages); topics in the bag: /scan [sensor_msgs/LaserScan, 360 messages]");
   // robot_localization's gyro with a camera topic that is not there.
   const fs::path imu = test::sharedData("rosbag-fixtures/ros1_imu_robot_localization/test2.bag");
-  EXPECT_CONTAINS(errorOf([&] { loadDataset(imu, {dir / "rig.yaml", "camera=/camera"}); }),
+  EXPECT_CONTAINS(errorOf([&] {
+                    loadDataset(imu, {dir / "rig.yaml", "camera=/camera"});
+                  }),
                   "--topics camera=/camera: no such topic in the bag");
 }
 

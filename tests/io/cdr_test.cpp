@@ -54,15 +54,15 @@ class Bytes {
 // encapsulation header, so the first float64 is preceded by 7 bytes of padding (to 24).
 Bytes imuCdrLe() {
   Bytes b;
-  b.raw({0x00, 0x01, 0x00, 0x00});                    // CDR_LE, options 0
+  b.raw({0x00, 0x01, 0x00, 0x00});                                // CDR_LE, options 0
   b.num<std::int32_t>(1700000000).num<std::uint32_t>(123456789);  // stamp
-  b.num<std::uint32_t>(5).chars("base", true);        // length includes the NUL
-  b.pad(7);                                           // 17 -> 24
-  for (double q : {0.1, 0.2, 0.3, 0.9}) b.num(q);     // orientation
+  b.num<std::uint32_t>(5).chars("base", true);                    // length includes the NUL
+  b.pad(7);                                                       // 17 -> 24
+  for (double q : {0.1, 0.2, 0.3, 0.9}) b.num(q);                 // orientation
   for (int i = 0; i < 9; ++i) b.num(i == 0 ? -1.0 : 0.0);
-  for (double w : {0.01, -0.02, 0.03}) b.num(w);      // angular_velocity
+  for (double w : {0.01, -0.02, 0.03}) b.num(w);  // angular_velocity
   for (int i = 0; i < 9; ++i) b.num(0.0);
-  for (double a : {0.5, -0.25, 9.81}) b.num(a);       // linear_acceleration
+  for (double a : {0.5, -0.25, 9.81}) b.num(a);  // linear_acceleration
   for (int i = 0; i < 9; ++i) b.num(i == 8 ? 2.5e-5 : 0.0);
   return b;
 }
@@ -84,10 +84,10 @@ TEST(Cdr, ImuLittleEndianDecodesWithItsPadding) {
 
 TEST(Cdr, LaserScanBigEndianDecodes) {
   Bytes b(/*big_endian=*/true);
-  b.raw({0x00, 0x00, 0x00, 0x00});                               // CDR_BE
-  b.num<std::int32_t>(12).num<std::uint32_t>(500'000'000);       // 12.5 s
-  b.num<std::uint32_t>(6).chars("laser", true);                  // 8..17
-  b.pad(2);                                                      // 18 -> 20 for float32
+  b.raw({0x00, 0x00, 0x00, 0x00});                          // CDR_BE
+  b.num<std::int32_t>(12).num<std::uint32_t>(500'000'000);  // 12.5 s
+  b.num<std::uint32_t>(6).chars("laser", true);             // 8..17
+  b.pad(2);                                                 // 18 -> 20 for float32
   for (float f : {-2.0f, 2.0f, 0.5f, 1e-4f, 0.1f, 0.02f, 30.0f}) b.num(f);
   b.num<std::uint32_t>(3);
   for (float r : {1.5f, std::numeric_limits<float>::infinity(), 2.25f}) b.num(r);
@@ -128,11 +128,11 @@ TEST(Cdr, Xcdr2AlignsEightByteValuesToFour) {
 TEST(Cdr, Ros1ImageIsPackedWithoutPadding) {
   Bytes b;
   b.num<std::uint32_t>(7).num<std::uint32_t>(100).num<std::uint32_t>(5);  // seq, sec, nsec
-  b.num<std::uint32_t>(3).chars("cam", false);  // ROS 1 strings: no NUL
-  b.num<std::uint32_t>(2).num<std::uint32_t>(3);  // height, width
+  b.num<std::uint32_t>(3).chars("cam", false);                            // ROS 1 strings: no NUL
+  b.num<std::uint32_t>(2).num<std::uint32_t>(3);                          // height, width
   b.num<std::uint32_t>(5).chars("mono8", false);
-  b.raw({0});                      // is_bigendian
-  b.num<std::uint32_t>(3);         // step, right after the byte: no alignment in ROS 1
+  b.raw({0});               // is_bigendian
+  b.num<std::uint32_t>(3);  // step, right after the byte: no alignment in ROS 1
   b.num<std::uint32_t>(6).raw({1, 2, 3, 4, 5, 6});
   const Image m = decodeImage(b.v, Wire::kRos1, "image");
   EXPECT_EQ(m.header.seq, 7u);
@@ -163,8 +163,8 @@ TEST(Cdr, EveryTypeRoundTripsInBothWiresAndByteOrders) {
   cv::randu(grey, 0, 255);
   Image image = imageMessage(grey, 1'234'567'890'123LL, "camera");
   expectRoundTrip(image, decodeImage);
-  EXPECT_EQ(cv::norm(greyImage(decodeImage(encode(image, Wire::kCdr), Wire::kCdr, "m"), "m"),
-                     grey, cv::NORM_INF),
+  EXPECT_EQ(cv::norm(greyImage(decodeImage(encode(image, Wire::kCdr), Wire::kCdr, "m"), "m"), grey,
+                     cv::NORM_INF),
             0.0);
   CompressedImage compressed;
   compressed.header.frame_id = "c";

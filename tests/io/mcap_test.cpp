@@ -146,6 +146,73 @@ TEST(Mcap, WrittenFilesReadBackInEveryCompression) {
   }
 }
 
+// Records built byte by byte from the specification (little endian, <op><u64 length><content>).
+class RecordBytes {
+ public:
+  explicit RecordBytes(std::uint8_t op) : op_(op) {}
+  template <typename T>
+  RecordBytes& num(T v) {
+    for (std::size_t i = 0; i < sizeof(T); ++i)
+      body_.push_back(static_cast<std::uint8_t>(v >> (8 * i)));
+    return *this;
+  }
+  RecordBytes& str(const std::string& s) {
+    num<std::uint32_t>(static_cast<std::uint32_t>(s.size()));
+    body_.insert(body_.end(), s.begin(), s.end());
+    return *this;
+  }
+  void appendTo(std::vector<std::uint8_t>& out) const {
+    out.push_back(op_);
+    for (int i = 0; i < 8; ++i) out.push_back(static_cast<std::uint8_t>(body_.size() >> (8 * i)));
+    out.insert(out.end(), body_.begin(), body_.end());
+  }
+
+ private:
+  std::uint8_t op_;
+  std::vector<std::uint8_t> body_;
+};
+
+TEST(Mcap, MessagesOutsideChunksWithoutASummary) {
+  const std::vector<std::uint8_t> magic = {0x89, 'M', 'C', 'A', 'P', '0', '\r', '\n'};
+  std::vector<std::uint8_t> b = magic;
+  RecordBytes(0x01).str("").str("hand").appendTo(b);                                     // Header
+  RecordBytes(0x03).num<std::uint16_t>(1).str("T").str("ros2msg").str("x").appendTo(b);  // Schema
+  RecordBytes(0x04)
+      .num<std::uint16_t>(7)
+      .num<std::uint16_t>(1)
+      .str("/t")
+      .str("cdr")
+      .num<std::uint32_t>(0)
+      .appendTo(b);  // Channel, empty metadata map
+  for (std::uint64_t t : {30, 10, 20}) {
+    RecordBytes m(0x05);
+    m.num<std::uint16_t>(7).num<std::uint32_t>(0).num<std::uint64_t>(t).num<std::uint64_t>(t);
+    m.num<std::uint8_t>(static_cast<std::uint8_t>(t));  // one byte of data
+    m.appendTo(b);
+  }
+  RecordBytes(0x0F).num<std::uint32_t>(0).appendTo(b);  // Data End
+  RecordBytes(0x02).num<std::uint64_t>(0).num<std::uint64_t>(0).num<std::uint32_t>(0).appendTo(b);
+  b.insert(b.end(), magic.begin(), magic.end());
+  const fs::path file = test::tempDir() / "hand.mcap";
+  writeAll(file, b);
+  const Reader r(file);
+  EXPECT_EQ(r.library(), "hand");
+  EXPECT_TRUE(r.chunks().empty());
+  EXPECT_FALSE(r.statistics());
+  EXPECT_EQ(r.channels().at(7).topic, "/t");
+  ASSERT_EQ(r.messages().size(), 3u);
+  EXPECT_EQ(r.messages()[0].chunk, MessageLocation::kNoChunk);
+  EXPECT_EQ(r.messageData(r.messages()[1]), std::vector<std::uint8_t>{10});
+  // A message on a channel never defined.
+  std::vector<std::uint8_t> bad = b;
+  // Magic 8, Header 9 + 12, Schema 9 + 23, Channel 9 + 21, then the first message's opcode+length.
+  const std::size_t channel_id_at = 8 + 21 + 32 + 30 + 9;
+  ASSERT_EQ(bad[channel_id_at], 7);
+  bad[channel_id_at] = 8;
+  writeAll(file, bad);
+  EXPECT_CONTAINS(test::errorOf([&] { Reader x(file); }), "a message on channel 8");
+}
+
 TEST(Mcap, DamagedFilesAreErrorsNamingTheFile) {
   const fs::path dir = test::tempDir();
   const fs::path good = dir / "good.mcap";

@@ -1,8 +1,6 @@
 // ROS 1 bags through librosbag (io/rosbag1_reader.hpp): the real fixtures read with the counts,
 // record times and decoded values of their manifest (../shared/data/rosbag-fixtures/MANIFEST.md),
 // none/bz2/lz4 chunks alike; damaged bags are ovo::Errors from the structure check, never a crash.
-#include "io/rosbag1_reader.hpp"
-
 #include <gtest/gtest.h>
 
 #include <fstream>
@@ -11,6 +9,7 @@
 #include "io/bag_source.hpp"
 #include "io/cdr.hpp"
 #include "io/rosbag1_check.hpp"
+#include "io/rosbag1_reader.hpp"
 #include "tests/test_support.hpp"
 
 namespace ovo::io::bag {
@@ -41,10 +40,15 @@ const std::string kDir = "rosbag-fixtures/";
 
 TEST(Rosbag1, TurtlesimReadsTheSameInEveryChunkCompression) {
   OVO_REQUIRE_DATA(kDir + "ros1_turtlesim/example.bag");
-  const std::map<std::string, std::uint64_t> expected = {
-      {"/rosout", 10},           {"/tf", 2688},          {"/tf_static", 1},
-      {"/turtle1/cmd_vel", 357}, {"/turtle1/color_sensor", 1351}, {"/turtle1/pose", 1344},
-      {"/turtle2/cmd_vel", 208}, {"/turtle2/color_sensor", 1344}, {"/turtle2/pose", 1344}};
+  const std::map<std::string, std::uint64_t> expected = {{"/rosout", 10},
+                                                         {"/tf", 2688},
+                                                         {"/tf_static", 1},
+                                                         {"/turtle1/cmd_vel", 357},
+                                                         {"/turtle1/color_sensor", 1351},
+                                                         {"/turtle1/pose", 1344},
+                                                         {"/turtle2/cmd_vel", 208},
+                                                         {"/turtle2/color_sensor", 1344},
+                                                         {"/turtle2/pose", 1344}};
   std::vector<std::vector<std::uint8_t>> payloads_none;
   for (const char* name : {"example.bag", "example-bz2.bag", "example-lz4.bag"}) {
     SCOPED_TRACE(name);
@@ -98,8 +102,10 @@ TEST(Rosbag1, TurtlesimReadsTheSameInEveryChunkCompression) {
       const auto b = bag->payload(m);
       all.insert(all.end(), b.begin(), b.end());
     }
-    if (payloads_none.empty()) payloads_none.push_back(all);
-    else EXPECT_TRUE(all == payloads_none.front());
+    if (payloads_none.empty())
+      payloads_none.push_back(all);
+    else
+      EXPECT_TRUE(all == payloads_none.front());
   }
 }
 
@@ -171,7 +177,8 @@ TEST(Rosbag1, HokuyoLaserScansKeepTheirBeamTime) {
     EXPECT_EQ(s.header.seq, ++seq);
   }
   EXPECT_EQ(seq, 1290u);
-  const ros::LaserScan s = ros::decodeLaserScan(bag->payload(bag->messages().front()), Wire::kRos1, "s");
+  const ros::LaserScan s =
+      ros::decodeLaserScan(bag->payload(bag->messages().front()), Wire::kRos1, "s");
   EXPECT_EQ(s.header.stamp_ns, ns(1282836370, 970876375));
   EXPECT_EQ(s.header.frame_id, "/laser");
   EXPECT_EQ(s.angle_min, -2.0862138271331787);
@@ -205,7 +212,8 @@ TEST(Rosbag1, HokuyoLaserScansKeepTheirBeamTime) {
   }
   EXPECT_LE(in_interval, 681 - 47);
   EXPECT_GT(in_interval, 600);
-  const ros::LaserScan e = ros::decodeLaserScan(bag->payload(bag->messages().back()), Wire::kRos1, "s");
+  const ros::LaserScan e =
+      ros::decodeLaserScan(bag->payload(bag->messages().back()), Wire::kRos1, "s");
   EXPECT_EQ(e.header.stamp_ns, ns(1282836406, 786728375));
   EXPECT_EQ(e.ranges[0], 2.88100004196167f);
   EXPECT_EQ(e.ranges[340], 0.4359999895095825f);
@@ -218,7 +226,8 @@ TEST(Rosbag1, RosNumpyImageAndCompressedImage) {
   ASSERT_EQ(bag->messages().size(), 9u);
   EXPECT_EQ(bag->messages().front().log_time_ns, ns(1519728624, 724574089));
   EXPECT_EQ(bag->messages().back().log_time_ns, ns(1519728624, 725740909));
-  const ros::Image img = ros::decodeImage(bag->payload(ends(*bag, "/image").first), Wire::kRos1, "i");
+  const ros::Image img =
+      ros::decodeImage(bag->payload(ends(*bag, "/image").first), Wire::kRos1, "i");
   EXPECT_EQ(img.header.stamp_ns, 0);
   EXPECT_EQ(img.header.frame_id, "");
   EXPECT_EQ(img.height, 240u);
@@ -238,8 +247,8 @@ TEST(Rosbag1, RosNumpyImageAndCompressedImage) {
   // Grey of the first pixel (R a6, G a3, B af): 0.299 R + 0.587 G + 0.114 B.
   EXPECT_NEAR(grey.at<std::uint8_t>(0, 0), 0.299 * 0xa6 + 0.587 * 0xa3 + 0.114 * 0xaf, 1.0);
 
-  const ros::CompressedImage c =
-      ros::decodeCompressedImage(bag->payload(ends(*bag, "/compressedimage").first), Wire::kRos1, "c");
+  const ros::CompressedImage c = ros::decodeCompressedImage(
+      bag->payload(ends(*bag, "/compressedimage").first), Wire::kRos1, "c");
   EXPECT_EQ(c.format, "png");
   ASSERT_EQ(c.data.size(), 82u);
   EXPECT_EQ(c.data[0], 0x89);

@@ -2,8 +2,6 @@
 // folders with metadata.yaml, read with the topics, counts and stamps of their manifest, the two
 // back-ends give the same payloads, and test_msgs messages decode by hand from their CDR layout;
 // damaged or unsupported bags are errors naming the file.
-#include "io/rosbag2_reader.hpp"
-
 #include <gtest/gtest.h>
 
 #include <fstream>
@@ -11,6 +9,7 @@
 
 #include "io/bag_source.hpp"
 #include "io/cdr.hpp"
+#include "io/rosbag2_reader.hpp"
 #include "tests/test_support.hpp"
 
 namespace ovo::io::bag {
