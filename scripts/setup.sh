@@ -57,7 +57,7 @@ fi
 case "$MODE" in
   run)
     # Only the command (not the tests and benchmarks): ninja's [done/total] line is the progress.
-    echo "ovo setup: building the ovo command ($JOBS jobs; 5-8 minutes on 2 cores the first time)"
+    echo "ovo setup: building the ovo command ($JOBS jobs; about 5 minutes on 2 idle cores the first time)"
     cmake --build "$BUILD" -j "$JOBS" --target ovo
     # The built-in default: the simulated vineyard (two rows joined by a headland U-turn).
     OUT=${OVO_DEMO_OUT:-$ROOT/out/demo}

@@ -7,11 +7,13 @@
 
 #include <gtest/gtest.h>
 
+#include <fstream>
 #include <opencv2/core.hpp>
 
 #include "camera/calib_io.hpp"
 #include "io/bag_writer.hpp"
 #include "io/dataset_writer.hpp"
+#include "io/rosbag1_reader.hpp"
 #include "tests/test_support.hpp"
 
 namespace ovo::io {
@@ -217,6 +219,38 @@ TEST(BagDataset, RepeatedStampsAreLeftOutWithANote) {
   EXPECT_EQ(ds.images[2].t_ns, kT0 + 100'000'000LL);
   ASSERT_EQ(ds.notes.size(), 1u);
   EXPECT_CONTAINS(ds.notes[0], "topic /cam: 1 messages repeat an earlier time stamp");
+}
+
+// Replaces every occurrence of `from` in the file by `to` (same length); returns how many.
+int patchFile(const fs::path& file, const std::string& from, const std::string& to) {
+  std::ifstream in(file, std::ios::binary);
+  std::string bytes((std::istreambuf_iterator<char>(in)), {});
+  in.close();
+  int n = 0;
+  for (std::size_t at = bytes.find(from); at != std::string::npos; at = bytes.find(from, at + 1)) {
+    bytes.replace(at, from.size(), to);
+    ++n;
+  }
+  std::ofstream(file, std::ios::binary) << bytes;
+  return n;
+}
+
+TEST(BagDataset, Ros1TopicOfAnotherDefinitionOrCompressionIsRefused) {
+  const fs::path dir = test::tempDir();
+  writeSmallDataset(dir, BagFormat::kRos1);
+  const fs::path bag = dir / "run.bag";
+  // Another version of LaserScan (its MD5 sum changed in the connection records).
+  const std::string md5 = bag::ros1Md5Sum(ros::MsgType::kLaserScan);
+  ASSERT_GE(patchFile(bag, "md5sum=" + md5, "md5sum=" + std::string(32, 'f')), 1);
+  const std::string e = errorOf([&] { loadDataset(bag); });
+  EXPECT_CONTAINS(e, bag.string());
+  EXPECT_CONTAINS(e, "topic /scan: sensor_msgs/LaserScan with MD5 sum ffff");
+  EXPECT_CONTAINS(e, "but the sensor_msgs definition ovo decodes has " + md5);
+  // An unknown chunk compression.
+  writeSmallDataset(dir, BagFormat::kRos1);
+  ASSERT_GE(patchFile(bag, "compression=none", "compression=zzzz"), 1);
+  EXPECT_CONTAINS(errorOf([&] { loadDataset(bag); }),
+                  "chunk compression 'zzzz' is not supported (expected none, bz2 or lz4)");
 }
 
 TEST(BagDataset, RealRos1BagsAsDatasets) {
