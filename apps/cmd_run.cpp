@@ -18,6 +18,7 @@
 #include "apps/progress.hpp"
 #include "apps/report.hpp"
 #include "apps/run_metrics.hpp"
+#include "apps/run_summary.hpp"
 #include "apps/viewer.hpp"
 #include "common/error.hpp"
 #include "io/dataset.hpp"
@@ -29,6 +30,7 @@ namespace {
 
 struct RunArgs {
   std::string dataset;
+  std::string rig, topics;  // bags only
   std::string config;
   std::string estimator = "window";
   std::string refine;  // --refine none|full (window only)
@@ -36,6 +38,7 @@ struct RunArgs {
   std::string gt;
   std::vector<std::string> sets;
   bool quiet = false;
+  bool json = false;
   bool realtime = false;
   bool serial = false;
   double rate = 1.0;
@@ -77,7 +80,7 @@ int runRun(const RunArgs& args) {
     config.applyOverride("window.refine=" + args.refine);
   }
 
-  const io::Dataset data = io::loadDataset(args.dataset);
+  const io::Dataset data = io::loadDataset(args.dataset, {args.rig, args.topics});
   if (data.images.empty()) fail("{}: the dataset has no images", args.dataset);
   Trajectory groundtruth = data.groundtruth;
   if (!args.gt.empty()) groundtruth = io::readGroundtruthFor(data, args.gt);
@@ -97,6 +100,7 @@ int runRun(const RunArgs& args) {
   spdlog::info("ovo run: {} on {} ({} frames, {} gyro samples, {} scans, camera {})", est->name(),
                args.dataset, data.images.size(), data.imu.size(), data.scans.size(),
                camera::modelName(setup.camera));
+  setup_notes.insert(setup_notes.begin(), data.notes.begin(), data.notes.end());
   for (const auto& note : setup_notes) spdlog::info("{}", note);
   for (auto& note : io::clockOverlapNotes(data, groundtruth)) {
     spdlog::warn("{}", note);
@@ -216,14 +220,28 @@ int runRun(const RunArgs& args) {
     out->commit();
     spdlog::info("wrote {}", out->target().string());
   }
-  if (!args.quiet) std::cout << metrics.dump(2) << std::endl;
+  if (args.json)
+    std::cout << metrics.dump(2) << std::endl;
+  else if (!args.quiet)
+    std::cout << runSummary(metrics, est->name(), args.dataset,
+                            out ? out->target() : std::filesystem::path())
+              << std::flush;
   return 0;
 }
 
 CommandRunner setupRun(CLI::App& sub) {
   auto args = std::make_shared<RunArgs>();
-  sub.add_option("--dataset", args->dataset, "Dataset folder (ovo/EuRoC layout or KITTI odometry)")
+  sub.add_option("--dataset", args->dataset,
+                 "Dataset folder (ovo/EuRoC layout or KITTI odometry) or a bag (ROS 1 .bag, "
+                 "rosbag2 .db3 or folder, .mcap)")
       ->required();
+  sub.add_option("--rig", args->rig,
+                 "Bags: the rig file (default: rig.yaml beside the bag); its camera.calibration "
+                 "names the camera calibration (default: calib_results.txt or sensor.yaml beside "
+                 "it or in cam0/)");
+  sub.add_option("--topics", args->topics,
+                 "Bags: camera=NAME,imu=NAME,lidar=NAME (default: the one topic of each type; "
+                 "none leaves a sensor out)");
   sub.add_option("--config", args->config, "Estimator configuration (YAML)");
   sub.add_option("--estimator", args->estimator, "window (default), kf or vo")
       ->check(CLI::IsMember({"window", "kf", "vo"}));
@@ -236,7 +254,8 @@ CommandRunner setupRun(CLI::App& sub) {
       "Ground truth trajectory (TUM, KITTI with or without time, EuRoC csv); on a KITTI folder "
       "KITTI poses are camera poses, as the folder's own");
   sub.add_option("--set", args->sets, "Override a configuration key: key.path=value (repeatable)");
-  sub.add_flag("--quiet", args->quiet, "Do not print the metrics");
+  sub.add_flag("--quiet", args->quiet, "Do not print the summary");
+  sub.add_flag("--json", args->json, "Print metrics.json instead of the summary");
   sub.add_option("--refine", args->refine,
                  "full: re-optimise all keyframes at the end (offline accuracy; window only)")
       ->check(CLI::IsMember({"none", "full"}));

@@ -1,6 +1,9 @@
 // `ovo simulate`: renders a synthetic vineyard sequence (fisheye or pinhole images, gyro and
 // accelerometer, planar LiDAR, exact ground truth) from a scenario file into a dataset folder
-// (DESIGN.md sections 8 and 10). Same scenario and seed: the same bytes.
+// (DESIGN.md sections 8 and 10), or with --format rosbag|db3|mcap into a bag beside the folder's
+// rig.yaml, calibration and ground truth. Same scenario and seed: the same bytes. The LiDAR's
+// values are rounded to float32 in every format (a LaserScan's type), so a folder and a bag of the
+// same run hold the same numbers and give the same trajectory.
 #include <spdlog/spdlog.h>
 #include <tbb/parallel_for.h>
 
@@ -12,6 +15,7 @@
 #include "common/config.hpp"
 #include "common/error.hpp"
 #include "io/dataset_writer.hpp"
+#include "io/ros_messages.hpp"
 #include "sim/board_scene.hpp"
 #include "sim/scenario.hpp"
 #include "sim/simulation.hpp"
@@ -30,6 +34,7 @@ struct SimulateArgs {
   std::optional<int> frames;
   std::optional<double> duration_s;
   std::vector<std::string> sets;
+  std::string format = "folder";
   bool overwrite = false;
 };
 
@@ -43,7 +48,9 @@ int runSimulate(const SimulateArgs& args) {
   if (sim::isBoardScene(config)) return runBoardSimulation(config, args.out, args.overwrite);
   const sim::Scenario scenario = sim::readScenario(config);
   const sim::Simulation simulation(scenario);
-  io::DatasetWriter writer(args.out, args.overwrite);
+  const std::optional<io::BagFormat> bag_format =
+      args.format == "folder" ? std::nullopt : std::optional(io::parseBagFormat(args.format));
+  io::DatasetWriter writer(args.out, args.overwrite, bag_format);
   const int frames = simulation.frameCount();
   spdlog::info("simulate: scenario '{}', seed {}, {} frames ({:.1f} s) of {}x{} ({}), writing {}",
                scenario.name, scenario.seed, frames, simulation.duration(),
@@ -53,11 +60,26 @@ int runSimulate(const SimulateArgs& args) {
   // Frames in parallel (each also renders its rows in parallel); every random draw depends only
   // on the frame index, so the order does not change the bytes.
   std::atomic<int> done{0};
-  tbb::parallel_for(0, frames, [&](int k) {
-    writer.writeImage(simulation.frameStamp(k), simulation.renderFrame(k));
-    const int n = ++done;
-    if (n % std::max(1, frames / 10) == 0) spdlog::info("simulate: {}/{} frames", n, frames);
-  });
+  if (!bag_format) {
+    tbb::parallel_for(0, frames, [&](int k) {
+      writer.writeImage(simulation.frameStamp(k), simulation.renderFrame(k));
+      const int n = ++done;
+      if (n % std::max(1, frames / 10) == 0) spdlog::info("simulate: {}/{} frames", n, frames);
+    });
+  } else {
+    // A bag's messages go in time order: frames rendered in parallel a batch at a time.
+    constexpr int kBatch = 16;
+    std::vector<cv::Mat> batch(kBatch);
+    for (int first = 0; first < frames; first += kBatch) {
+      const int n = std::min(kBatch, frames - first);
+      tbb::parallel_for(0, n, [&](int i) { batch[i] = simulation.renderFrame(first + i); });
+      for (int i = 0; i < n; ++i) {
+        writer.writeImage(simulation.frameStamp(first + i), batch[i]);
+        if (++done % std::max(1, frames / 10) == 0)
+          spdlog::info("simulate: {}/{} frames", done.load(), frames);
+      }
+    }
+  }
   const auto rendered = std::chrono::steady_clock::now();
 
   std::vector<sim::GyroBiasSample> bias;
@@ -66,7 +88,9 @@ int runSimulate(const SimulateArgs& args) {
   bias_pairs.reserve(bias.size());
   for (const auto& b : bias) bias_pairs.emplace_back(b.t_ns, b.bias_radps);
   writer.writeTrueGyroBias(bias_pairs);
-  writer.writeLidar(simulation.lidar());
+  std::vector<LidarScan> scans = simulation.lidar();
+  for (LidarScan& scan : scans) io::ros::roundToLaserScan(scan);
+  writer.writeLidar(scans);
   writer.writeGroundTruth(simulation.groundTruth());
   writer.writeCamera(simulation.camera(), simulation.T_B_C(), scenario.camera.rate_hz);
 
@@ -105,6 +129,11 @@ CommandRunner setupSimulate(CLI::App& sub) {
   sub.add_option("--frames", args->frames, "Number of camera frames (short sequences)");
   sub.add_option("--duration", args->duration_s, "Length in seconds (ignored with --frames)");
   sub.add_option("--set", args->sets, "Override a scenario key: key.path=value (repeatable)");
+  sub.add_option("--format", args->format,
+                 "folder (EuRoC layout), or the images, gyro and scans in a bag beside rig.yaml: "
+                 "rosbag (ROS 1 run.bag), db3 (rosbag2 sqlite3 folder run/), mcap (run.mcap)")
+      ->check(CLI::IsMember({"folder", "rosbag", "db3", "mcap"}))
+      ->capture_default_str();
   sub.add_flag("--overwrite", args->overwrite, "Replace --out if it exists");
   return [args] {
     if (args->seed && *args->seed < 0)

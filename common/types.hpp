@@ -47,6 +47,7 @@ struct LidarScan {
   double range_min_m = 0.0;
   double range_max_m = 0.0;
   std::vector<double> ranges_m;
+  double time_increment_s = 0.0;  // beam i measured at t_ns + i * time_increment_s (0: at t_ns)
 
   bool valid(std::size_t i) const {
     const double r = ranges_m[i];

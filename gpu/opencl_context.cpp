@@ -1,5 +1,6 @@
 #include "gpu/opencl_context.hpp"
 
+#include <spdlog/spdlog.h>
 #include <unistd.h>
 
 #include <cstdlib>
@@ -230,16 +231,26 @@ cl_program OpenClContext::program(const std::string& source, const std::string& 
   cl_int err = CL_SUCCESS;
   ClProgram prog(clCreateProgramWithSource(context(), 1, &src, &len, &err));
   clCheck(err, "clCreateProgramWithSource");
-  err = clBuildProgram(prog.get(), 1, &device_, options.c_str(), nullptr, nullptr);
-  if (err != CL_SUCCESS) {
+  // The OpenCL compiler's warnings (PoCL's clang prints "N warnings generated." on stderr) stay
+  // out of a normal run (-w); with --verbose they are shown, and the build log is logged.
+  const bool verbose = spdlog::get_level() <= spdlog::level::debug;
+  const std::string build_options = verbose ? options : options + " -w";
+  err = clBuildProgram(prog.get(), 1, &device_, build_options.c_str(), nullptr, nullptr);
+  auto buildLog = [&] {
     std::size_t n = 0;
     clGetProgramBuildInfo(prog.get(), device_, CL_PROGRAM_BUILD_LOG, 0, nullptr, &n);
     std::string log(n, '\0');
     if (n) clGetProgramBuildInfo(prog.get(), device_, CL_PROGRAM_BUILD_LOG, n, log.data(), nullptr);
     while (!log.empty() && (log.back() == '\0' || log.back() == '\n')) log.pop_back();
+    return log;
+  };
+  if (err != CL_SUCCESS)
     fail("clBuildProgram: {} (device '{}', options '{}')\n{}", clErrorName(err), device_name_,
-         options, log);
-  }
+         build_options, buildLog());
+  if (verbose)
+    if (const std::string log = buildLog(); !log.empty())
+      spdlog::debug("OpenCL build log (device '{}', options '{}'):\n{}", device_name_,
+                    build_options, log);
   cl_program raw = prog.get();
   programs_.emplace(std::move(key), std::move(prog));
   return raw;

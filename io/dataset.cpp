@@ -9,6 +9,7 @@
 #include "camera/calib_io.hpp"
 #include "common/config.hpp"
 #include "common/error.hpp"
+#include "io/bag_dataset.hpp"
 #include "io/text_reader.hpp"
 #include "io/trajectory_io.hpp"
 
@@ -360,12 +361,44 @@ RigInfo readRigYaml(const fs::path& file) {
   rig.lidar_rate_hz = cfg.getInRange("lidar.rate_hz", rig.lidar_rate_hz, kMin, kMax);
   rig.lidar_range_sigma_m =
       cfg.getInRange("lidar.range_sigma_m", rig.lidar_range_sigma_m, 0.0, kMax);
+  if (cfg.has("camera.calibration")) {
+    const std::string calib = cfg.get<std::string>("camera.calibration", "");
+    if (calib.empty())
+      fail("{}: key 'camera.calibration': expected the camera calibration file's path", where);
+    rig.camera_calibration = file.parent_path() / calib;
+  }
   cfg.checkAllUsed();
   return rig;
 }
 
-Dataset loadDataset(const fs::path& root) {
+namespace {
+
+// The one bag in a folder without an image list (`ovo simulate --format rosbag|db3|mcap`
+// writes the bag beside its rig.yaml): *.bag, *.db3, *.mcap or a rosbag2 sub-folder.
+std::optional<fs::path> singleBagIn(const fs::path& root) {
+  if (fs::exists(root / "cam0" / "data.csv") || fs::exists(root / "mav0" / "cam0" / "data.csv") ||
+      fs::exists(root / "image_0"))
+    return std::nullopt;
+  std::vector<fs::path> bags;
+  for (const auto& e : fs::directory_iterator(root))
+    if (e.path().filename().string()[0] != '.' && bag::isBagPath(e.path()) &&
+        (e.is_directory() || e.is_regular_file()))
+      bags.push_back(e.path());
+  if (bags.size() != 1) return std::nullopt;
+  return bags.front();
+}
+
+}  // namespace
+
+Dataset loadDataset(const fs::path& root, const LoadOptions& options) {
+  if (bag::isBagPath(root)) return loadBagDataset(root, options);
   if (!fs::is_directory(root)) fail("{}: dataset folder not found", root.string());
+  if (auto bag = singleBagIn(root)) return loadBagDataset(*bag, options);
+  if (!options.rig.empty() || !options.topics.empty())
+    fail(
+        "{}: --rig and --topics apply to bags (.bag, .db3, .mcap, a rosbag2 folder); a dataset "
+        "folder has its own rig.yaml",
+        root.string());
   if (fs::is_directory(root / "mav0" / "cam0")) return loadOvo(root, root / "mav0");
   if (fs::is_directory(root / "cam0")) return loadOvo(root, root);
   if (fs::is_directory(root / "image_0")) {
@@ -389,6 +422,7 @@ Trajectory readGroundtruthFor(const Dataset& ds, const fs::path& file) {
 }
 
 cv::Mat loadImageGrey(const ImageEntry& entry) {
+  if (entry.load) return entry.load();
   if (!fs::is_regular_file(entry.path)) fail("{}: image file not found", entry.path.string());
   cv::Mat image = cv::imread(entry.path.string(), cv::IMREAD_GRAYSCALE);
   if (image.empty())

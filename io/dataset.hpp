@@ -1,9 +1,11 @@
-// Reading a recorded or simulated sequence from disk: the ovo/EuRoC (ASL) folder layout and
-// KITTI odometry folders (DESIGN.md section 10). Errors name the file, the line and what was
-// expected; nothing is read lazily except the images themselves (loadImageGrey).
+// Reading a recorded or simulated sequence from disk: the ovo/EuRoC (ASL) folder layout, KITTI
+// odometry folders (DESIGN.md section 10) and bags (ROS 1, rosbag2 sqlite3, MCAP:
+// io/bag_dataset.hpp). Errors name the file, the line and what was expected; nothing is read
+// lazily except the images themselves (loadImageGrey).
 #pragma once
 
 #include <filesystem>
+#include <functional>
 #include <opencv2/core.hpp>
 #include <optional>
 #include <string>
@@ -19,6 +21,8 @@ namespace ovo::io {
 struct ImageEntry {
   Timestamp t_ns = 0;
   std::filesystem::path path;
+  /// Set for an image inside a bag: decodes it as 8-bit grey (path then only names it).
+  std::function<cv::Mat()> load = {};
 };
 
 /// Rig extrinsics and sensor noise figures: from rig.yaml when there is one (has_rig_file), else
@@ -36,12 +40,13 @@ struct RigInfo {
   double lidar_range_sigma_m = 0.02;
   bool has_rig_file = false;
   bool has_T_B_C = false;  // the rig file gave T_B_C (without it: the camera's sensor.yaml T_BS)
+  std::filesystem::path camera_calibration;  // camera.calibration (bags): the calibration file
 };
 
 /// Everything of a sequence except the pixels. Ground truth is T_W_B.
 struct Dataset {
   std::filesystem::path root;
-  std::string kind;  // "ovo" (EuRoC/ASL layout) or "kitti"
+  std::string kind;  // "ovo" (EuRoC/ASL layout), "kitti" or "bag"
   std::vector<ImageEntry> images;
   std::optional<camera::Camera> camera;
   std::filesystem::path camera_file;  // where the calibration came from (messages)
@@ -50,6 +55,14 @@ struct Dataset {
   std::vector<LidarScan> scans;
   Trajectory groundtruth;                                  // T_W_B; empty when there is none
   std::vector<std::pair<Timestamp, Vec3>> true_gyro_bias;  // [rad/s], simulator only
+  std::vector<std::string> notes;  // what the reader assumed (a bag's record times, ...)
+};
+
+/// How a bag is read (both empty for folders): the rig file (--rig) and the topics (--topics
+/// camera=...,imu=...,lidar=...), see io/bag_dataset.hpp.
+struct LoadOptions {
+  std::filesystem::path rig;
+  std::string topics;
 };
 
 /// Detects the layout of `root` and reads it:
@@ -60,8 +73,11 @@ struct Dataset {
 /// - KITTI odometry: image_0/*.png, calib.txt (P0), times.txt, optional poses file (poses*.txt or
 ///   NN.txt, 3x4 rows with or without a leading time); the KITTI rig (kittiBodyFromCamera(), camera
 ///   1.65 m above the road, pitch 0) and the ground truth turned into T_W_B with W z-up.
-/// Throws ovo::Error naming the file and line on anything missing or malformed.
-Dataset loadDataset(const std::filesystem::path& root);
+/// - a bag: a .bag, .db3 or .mcap file or a rosbag2 folder (io/bag_dataset.hpp), or a folder
+///   holding no cam0/data.csv but exactly one bag (as `ovo simulate --format` writes).
+/// Throws ovo::Error naming the file and line on anything missing or malformed; options given for
+/// a folder that is not a bag are an error.
+Dataset loadDataset(const std::filesystem::path& root, const LoadOptions& options = {});
 
 /// A ground-truth file for `ds` (`ovo run --gt`): TUM, KITTI or EuRoC csv, as readTrajectory()
 /// reads it. On a KITTI folder a KITTI-format file is taken as the folder's own poses file is:
@@ -85,6 +101,7 @@ SE3 cameraExtrinsics(const RigInfo& rig, const std::optional<SE3>& T_B_C_calib,
                      const std::filesystem::path& rig_file);
 
 /// Reads rig.yaml (unknown keys, bad values and non-rigid transforms are errors naming the key).
+/// camera.calibration (a path relative to the rig file) is kept for bags; folders use cam0/.
 RigInfo readRigYaml(const std::filesystem::path& file);
 
 /// One note per sensor of `data` (gyro, LiDAR) and for `groundtruth` whose stamps do not overlap

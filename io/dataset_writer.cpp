@@ -46,15 +46,30 @@ class TextFile {
 }  // namespace
 
 DatasetWriter::DatasetWriter(const fs::path& out, bool overwrite)
+    : DatasetWriter(out, overwrite, std::nullopt) {}
+
+DatasetWriter::DatasetWriter(const fs::path& out, bool overwrite,
+                             std::optional<BagFormat> bag_format)
     : folder_(out, "--out",
               overwrite ? StagedFolder::Replace::kAlways : StagedFolder::Replace::kIfEmpty) {
   std::error_code ec;
-  fs::create_directories(stagingDir() / "cam0" / "data", ec);
-  if (ec) fail("cannot create '{}': {}", (stagingDir() / "cam0" / "data").string(), ec.message());
+  const fs::path dir = stagingDir() / "cam0" / (bag_format ? "" : "data");
+  fs::create_directories(dir, ec);
+  if (ec) fail("cannot create '{}': {}", dir.string(), ec.message());
+  if (bag_format)
+    bag_ = BagWriter::create(*bag_format, bagPathIn(stagingDir(), "run", *bag_format));
 }
+
+DatasetWriter::~DatasetWriter() = default;
 
 void DatasetWriter::writeImage(Timestamp t_ns, const cv::Mat& grey8) {
   if (grey8.type() != CV_8UC1) fail("writeImage: expected an 8-bit grey image");
+  if (bag_) {
+    const ros::Image message = ros::imageMessage(grey8, t_ns, "camera");
+    std::lock_guard<std::mutex> lock(mutex_);
+    bag_->write(kBagCameraTopic, message);
+    return;
+  }
   const fs::path path = stagingDir() / "cam0" / "data" / fmt::format("{}.png", t_ns);
   if (!cv::imwrite(path.string(), grey8, {cv::IMWRITE_PNG_COMPRESSION, 1}))
     fail("cannot write image '{}'", path.string());
@@ -71,6 +86,10 @@ void DatasetWriter::writeCamera(const camera::Camera& cam, const SE3& T_B_C, dou
 }
 
 void DatasetWriter::writeImu(const std::vector<ImuSample>& samples) {
+  if (bag_) {
+    for (const auto& s : samples) bag_->write(kBagImuTopic, ros::imuMessage(s, "imu"));
+    return;
+  }
   fs::create_directories(stagingDir() / "imu0");
   TextFile f(stagingDir() / "imu0" / "data.csv");
   f.print(
@@ -83,6 +102,15 @@ void DatasetWriter::writeImu(const std::vector<ImuSample>& samples) {
 }
 
 void DatasetWriter::writeLidar(const std::vector<LidarScan>& scans) {
+  if (bag_) {
+    std::vector<Timestamp> dt;
+    for (std::size_t i = 1; i < scans.size(); ++i) dt.push_back(scans[i].t_ns - scans[i - 1].t_ns);
+    std::nth_element(dt.begin(), dt.begin() + static_cast<std::ptrdiff_t>(dt.size() / 2), dt.end());
+    const double scan_time_s = dt.empty() ? 0.0 : toSeconds(dt[dt.size() / 2]);
+    for (const auto& s : scans)
+      bag_->write(kBagLidarTopic, ros::laserScanMessage(s, scan_time_s, "laser"));
+    return;
+  }
   fs::create_directories(stagingDir() / "lidar0");
   TextFile f(stagingDir() / "lidar0" / "data.csv");
   f.print(
@@ -134,6 +162,11 @@ void DatasetWriter::writeText(const fs::path& relative, const std::string& text)
 }
 
 void DatasetWriter::commit() {
+  if (bag_) {
+    bag_->close();
+    folder_.commit();
+    return;
+  }
   {
     std::lock_guard<std::mutex> lock(mutex_);
     std::sort(image_stamps_.begin(), image_stamps_.end());

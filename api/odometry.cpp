@@ -1,0 +1,260 @@
+// ovo::Odometry (api/ovo.hpp) over the estimator interface (estimator/estimator.hpp): offline, the
+// measurements go to the estimator in the order the offline runner uses (estimator::
+// feedUntilImage: an image after the gyro up to and including the first sample at or after it,
+// scans up to its time before it); live, through the threaded app::OnlinePipeline.
+#include <cmath>
+#include <deque>
+#include <limits>
+#include <mutex>
+#include <opencv2/imgproc.hpp>
+#include <optional>
+#include <variant>
+
+#include "api/ovo.hpp"
+#include "apps/online_pipeline.hpp"
+#include "camera/calib_io.hpp"
+#include "common/config.hpp"
+#include "common/error.hpp"
+#include "estimator/estimator.hpp"
+#include "io/bag_dataset.hpp"
+#include "io/dataset.hpp"
+
+namespace ovo {
+
+namespace {
+
+Pose toPose(const StampedPose& p, bool tracked, bool keyframe) {
+  Pose out;
+  out.t_ns = p.t_ns;
+  const Vec3 t = p.T_W_B.translation();
+  const Quat q(p.T_W_B.linear());
+  out.position_m = {t.x(), t.y(), t.z()};
+  out.orientation_xyzw = {q.x(), q.y(), q.z(), q.w()};
+  out.tracked = tracked;
+  out.is_keyframe = keyframe;
+  return out;
+}
+
+Pose toPose(const estimator::FrameEstimate& f) {
+  return toPose({f.t_ns, f.T_W_B}, f.tracked, f.is_keyframe);
+}
+
+estimator::SensorSetup setupFromRig(const std::filesystem::path& rig_file,
+                                    const OdometryOptions& options) {
+  const io::RigInfo rig = io::readRigYaml(rig_file);
+  const std::filesystem::path calib = io::rigCameraCalibration(rig, rig_file);
+  estimator::SensorSetup setup{.camera = camera::loadCamera(calib)};
+  std::optional<SE3> T_B_C_calib;
+  if (calib.extension() == ".yaml") T_B_C_calib = camera::readSensorYamlExtrinsics(calib);
+  setup.T_B_C = io::cameraExtrinsics(rig, T_B_C_calib, rig_file);
+  setup.T_B_L = rig.T_B_L;
+  setup.camera_rate_hz = rig.camera_rate_hz;
+  setup.pixel_sigma = rig.pixel_sigma;
+  setup.camera_height_m = rig.camera_height_m;
+  setup.gyro_noise_density = rig.gyro_noise_density;
+  setup.gyro_bias_random_walk = rig.gyro_bias_random_walk;
+  setup.lidar_range_sigma_m = rig.lidar_range_sigma_m;
+  setup.has_gyro = options.use_gyro;
+  setup.has_lidar = options.use_lidar;
+  estimator::applyNoiseFloors(setup);
+  return setup;
+}
+
+LidarScan toScan(const Scan& s) {
+  LidarScan out;
+  out.t_ns = s.t_ns;
+  out.angle_min_rad = s.angle_min_rad;
+  out.angle_increment_rad = s.angle_increment_rad;
+  out.range_min_m = s.range_min_m;
+  out.range_max_m = s.range_max_m;
+  out.time_increment_s = s.time_increment_s;
+  out.ranges_m.reserve(s.ranges_m.size());
+  for (float r : s.ranges_m)
+    out.ranges_m.push_back(std::isfinite(r) ? r : std::numeric_limits<double>::quiet_NaN());
+  return out;
+}
+
+cv::Mat toGrey(const cv::Mat& image, const camera::Camera& cam) {
+  cv::Mat grey;
+  if (image.type() == CV_8UC1)
+    grey = image.clone();
+  else if (image.type() == CV_8UC3)
+    cv::cvtColor(image, grey, cv::COLOR_BGR2GRAY);
+  else if (image.type() == CV_8UC4)
+    cv::cvtColor(image, grey, cv::COLOR_BGRA2GRAY);
+  else
+    fail("Odometry::addImage: expected an 8-bit grey, BGR or BGRA image");
+  if (grey.cols != camera::width(cam) || grey.rows != camera::height(cam))
+    fail("Odometry::addImage: the image is {}x{}, the camera calibration is for {}x{}", grey.cols,
+         grey.rows, camera::width(cam), camera::height(cam));
+  return grey;
+}
+
+}  // namespace
+
+struct Odometry::Impl {
+  explicit Impl(estimator::SensorSetup s) : setup(std::move(s)) {}
+  estimator::SensorSetup setup;
+  std::unique_ptr<estimator::Estimator> est;
+  PoseCallback on_pose;
+  bool realtime = false;
+  bool finished = false;
+  int processed = 0;
+  std::optional<app::OnlinePipeline> pipeline;  // realtime
+
+  // Offline: images and scans waiting for the gyro sample at or after the image time.
+  using Item = std::variant<std::pair<Timestamp, cv::Mat>, LidarScan>;
+  std::deque<Item> waiting;
+  bool any_image = false, any_gyro = false, any_scan = false;
+  Timestamp last_image = 0, last_gyro = 0, last_scan = 0;
+  mutable std::mutex mutex;
+  std::vector<Pose> poses;  // as update() returned them
+
+  void process(const Item& item) {
+    if (const auto* scan = std::get_if<LidarScan>(&item)) {
+      est->addScan(*scan);
+      return;
+    }
+    const auto& [t, grey] = std::get<std::pair<Timestamp, cv::Mat>>(item);
+    deliver(toPose(est->addImage(t, grey)));
+  }
+  void deliver(const Pose& p) {
+    {
+      std::lock_guard lock(mutex);
+      poses.push_back(p);
+      ++processed;
+    }
+    if (on_pose) on_pose(p);
+  }
+  // Offline: processes the waiting items in order up to the first image after `t_gyro` (all
+  // images when nullopt). Scans after the last image wait for the next one; at the end they are
+  // dropped, as the offline runner never feeds them.
+  void drain(std::optional<Timestamp> t_gyro) {
+    std::size_t images = 0;
+    for (const Item& item : waiting)
+      images += std::holds_alternative<std::pair<Timestamp, cv::Mat>>(item);
+    while (images > 0) {
+      const Item& front = waiting.front();
+      if (const auto* image = std::get_if<std::pair<Timestamp, cv::Mat>>(&front)) {
+        if (t_gyro && image->first > *t_gyro) return;
+        --images;
+      }
+      process(front);
+      waiting.pop_front();
+    }
+  }
+};
+
+Odometry::Odometry(const std::string& rig_file, const OdometryOptions& options,
+                   PoseCallback on_pose)
+    : impl_(std::make_unique<Impl>(setupFromRig(rig_file, options))) {
+  Config config;
+  if (!options.config_file.empty()) config = Config::load(options.config_file);
+  config.applyOverrides(options.settings);
+  impl_->est = estimator::makeEstimator(options.estimator, impl_->setup, config);
+  config.checkAllUsed();
+  impl_->on_pose = std::move(on_pose);
+  impl_->realtime = options.realtime;
+  if (options.realtime) {
+    impl_->pipeline.emplace(
+        *impl_->est, app::OnlineOptions{},
+        [impl = impl_.get()](const app::OnlineOutput& o) { impl->deliver(toPose(o.estimate)); });
+    impl_->pipeline->start();
+  }
+}
+
+Odometry::~Odometry() {
+  try {
+    if (impl_->pipeline) impl_->pipeline->stop();
+  } catch (...) {  // the error was the caller's to get from finish()
+  }
+}
+
+bool Odometry::addImage(std::int64_t t_ns, const cv::Mat& image) {
+  Impl& m = *impl_;
+  if (m.finished || (m.any_image && t_ns <= m.last_image)) return false;
+  cv::Mat grey = toGrey(image, m.setup.camera);
+  m.any_image = true;
+  m.last_image = t_ns;
+  if (m.pipeline) return m.pipeline->addImage(t_ns, grey);
+  m.waiting.emplace_back(std::pair<Timestamp, cv::Mat>(t_ns, std::move(grey)));
+  if (!m.setup.has_gyro || (m.any_gyro && m.last_gyro >= t_ns)) m.drain(std::nullopt);
+  return true;
+}
+
+bool Odometry::addGyro(const GyroSample& sample) {
+  Impl& m = *impl_;
+  if (m.finished || (m.any_gyro && sample.t_ns <= m.last_gyro)) return false;
+  m.any_gyro = true;
+  m.last_gyro = sample.t_ns;
+  const ImuSample s{sample.t_ns, Vec3(sample.wx, sample.wy, sample.wz), Vec3::Zero()};
+  if (m.pipeline) return m.pipeline->addGyro(s);
+  if (!m.setup.has_gyro) return true;
+  // Images waiting since before this sample: the sample is the first at or after them.
+  m.est->addGyro(s);
+  m.drain(sample.t_ns);
+  return true;
+}
+
+bool Odometry::addScan(const Scan& scan) {
+  Impl& m = *impl_;
+  if (m.finished || (m.any_scan && scan.t_ns <= m.last_scan)) return false;
+  m.any_scan = true;
+  m.last_scan = scan.t_ns;
+  LidarScan s = toScan(scan);
+  if (m.pipeline) return m.pipeline->addScan(s);
+  if (!m.setup.has_lidar) return true;
+  // Before the first waiting image at or after its time, after the gyro that image waits for (as
+  // the offline runner feeds scans).
+  auto it = m.waiting.begin();
+  while (it != m.waiting.end()) {
+    const auto* image = std::get_if<std::pair<Timestamp, cv::Mat>>(&*it);
+    if (image && image->first >= s.t_ns) break;
+    ++it;
+  }
+  m.waiting.insert(it, std::move(s));
+  return true;
+}
+
+void Odometry::finish() {
+  Impl& m = *impl_;
+  if (m.finished) return;
+  m.finished = true;
+  if (m.pipeline) {
+    m.pipeline->stop();  // finishes the estimator
+    return;
+  }
+  m.drain(std::nullopt);
+  m.waiting.clear();
+  m.est->finish();
+}
+
+std::vector<Pose> Odometry::trajectory() const {
+  const Impl& m = *impl_;
+  if (!m.finished) {
+    std::lock_guard lock(m.mutex);
+    return m.poses;
+  }
+  // The estimator's final poses (a refinement may have moved them), with the frames' flags.
+  std::vector<Pose> out;
+  std::lock_guard lock(m.mutex);
+  const Trajectory final_poses = m.est->trajectory();
+  std::size_t j = 0;
+  for (const StampedPose& p : final_poses) {
+    while (j < m.poses.size() && m.poses[j].t_ns < p.t_ns) ++j;
+    const bool known = j < m.poses.size() && m.poses[j].t_ns == p.t_ns;
+    out.push_back(toPose(p, known && m.poses[j].tracked, known && m.poses[j].is_keyframe));
+  }
+  return out;
+}
+
+int Odometry::framesProcessed() const {
+  std::lock_guard lock(impl_->mutex);
+  return impl_->processed;
+}
+
+int Odometry::framesDropped() const {
+  return impl_->pipeline ? impl_->pipeline->stats().frames_dropped : 0;
+}
+
+}  // namespace ovo

@@ -1,0 +1,105 @@
+// ovo's public API: visual odometry for a ground robot from one (fisheye) camera, a gyroscope and
+// a planar LiDAR. This is the one header an installed ovo gives (`#include <ovo/ovo.hpp>`, CMake:
+// `find_package(ovo REQUIRED)` and `target_link_libraries(app PRIVATE ovo::ovo)`).
+//
+//   ovo::Odometry odo("rig.yaml", {}, [](const ovo::Pose& p) { ... });
+//   odo.addGyro({t_ns, wx, wy, wz});   // body frame, rad/s, as they arrive
+//   odo.addScan(scan);                 // sensor_msgs/LaserScan's fields
+//   odo.addImage(t_ns, image);         // 8-bit grey or BGR
+//   ...
+//   odo.finish();                      // poses of every frame: odo.trajectory()
+//
+// Conventions: time in int64 nanoseconds, the same clock for all sensors. Frames: body B = the
+// gyro's frame (x forward, y left, z up), world W = the body frame at the first pose. A pose is
+// T_W_B: p_W = R(q) * p_B + position. Camera and LiDAR extrinsics (T_B_C, T_B_L), noise figures and
+// the camera calibration come from the rig file.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <opencv2/core.hpp>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace ovo {
+
+/// The body's pose T_W_B at a camera frame.
+struct Pose {
+  std::int64_t t_ns = 0;
+  std::array<double, 3> position_m{0, 0, 0};           // of B in W
+  std::array<double, 4> orientation_xyzw{0, 0, 0, 1};  // rotation B -> W (Hamilton quaternion)
+  bool tracked = false;  // false: held or propagated (lost, standing still, starting up)
+  bool is_keyframe = false;
+};
+
+/// One gyro sample in the body frame [rad/s].
+struct GyroSample {
+  std::int64_t t_ns = 0;
+  double wx = 0, wy = 0, wz = 0;
+};
+
+/// One planar LiDAR scan in the LiDAR frame (sensor_msgs/LaserScan): beam i at angle
+/// angle_min + i * angle_increment in the x-y plane, measured at t_ns + i * time_increment; a
+/// range outside [range_min, range_max] (or NaN/inf) is no return.
+struct Scan {
+  std::int64_t t_ns = 0;
+  double angle_min_rad = 0, angle_increment_rad = 0;
+  double range_min_m = 0, range_max_m = 0;
+  double time_increment_s = 0;
+  std::vector<float> ranges_m;
+};
+
+struct OdometryOptions {
+  std::string estimator = "window";   // window (sliding window), kf (Kalman filter), vo (camera)
+  std::string config_file;            // optional YAML of estimator keys (ovo's configs/)
+  std::vector<std::string> settings;  // optional overrides "key.path=value"
+  bool use_gyro = true;               // false when the robot has no gyro
+  bool use_lidar = true;              // false when it has no LiDAR
+  /// false (offline): every measurement is processed in the calling thread, in time order, none
+  /// dropped; an image waits for the first gyro sample at or after its time (or finish()). The
+  /// poses are those of `ovo run`. true (live): two threads of their own process the images; when
+  /// they fall behind the oldest waiting image is dropped; the callback runs on their thread.
+  bool realtime = false;
+};
+
+/// Visual odometry over a stream of measurements. Feed each sensor in time order.
+class Odometry {
+ public:
+  using PoseCallback = std::function<void(const Pose&)>;
+
+  /// rig_file: a rig.yaml (T_B_C, T_B_L, camera/gyro/lidar noise figures) whose
+  /// camera.calibration key names the camera calibration (OCamCalib calib_results.txt or a
+  /// sensor.yaml), else calib_results.txt or sensor.yaml beside it or in cam0/. on_pose is called
+  /// once for every processed image. Errors (a bad rig file, calibration or configuration key)
+  /// are std::runtime_error exceptions whose message names the file, the key and what was
+  /// expected; so are an error in processing, thrown by the call that meets it (or finish()).
+  Odometry(const std::string& rig_file, const OdometryOptions& options, PoseCallback on_pose);
+  ~Odometry();
+  Odometry(const Odometry&) = delete;
+  Odometry& operator=(const Odometry&) = delete;
+
+  /// Returns false (and ignores it) for a measurement not after the previous one of its kind, or
+  /// after finish(). addImage throws for an image that is not 8-bit grey, BGR or BGRA, or not of
+  /// the calibration's size.
+  bool addImage(std::int64_t t_ns, const cv::Mat& image);
+  bool addGyro(const GyroSample& sample);
+  bool addScan(const Scan& scan);
+
+  /// Processes everything still waiting and ends the run (a window estimator refines its last
+  /// poses). Idempotent.
+  void finish();
+  /// The final pose of every processed frame (after finish(); before it, the poses so far).
+  std::vector<Pose> trajectory() const;
+  /// Images processed, and dropped (realtime only).
+  int framesProcessed() const;
+  int framesDropped() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace ovo
