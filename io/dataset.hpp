@@ -12,6 +12,7 @@
 
 #include "camera/camera.hpp"
 #include "common/types.hpp"
+#include "io/skipped_records.hpp"
 
 namespace ovo::io {
 
@@ -50,6 +51,7 @@ struct Dataset {
   std::vector<LidarScan> scans;
   Trajectory groundtruth;                                  // T_W_B; empty when there is none
   std::vector<std::pair<Timestamp, Vec3>> true_gyro_bias;  // [rad/s], simulator only
+  SkippedRecords skipped;  // bad records the readers skipped (RecordPolicy), by sensor and reason
 };
 
 /// Detects the layout of `root` and reads it:
@@ -60,8 +62,11 @@ struct Dataset {
 /// - KITTI odometry: image_0/*.png, calib.txt (P0), times.txt, optional poses file (poses*.txt or
 ///   NN.txt, 3x4 rows with or without a leading time); the KITTI rig (kittiBodyFromCamera(), camera
 ///   1.65 m above the road, pitch 0) and the ground truth turned into T_W_B with W z-up.
-/// Throws ovo::Error naming the file and line on anything missing or malformed.
-Dataset loadDataset(const std::filesystem::path& root);
+/// Throws ovo::Error naming the file and line on anything missing or malformed, except a bad
+/// record in a sensor stream (an image-list, gyro or LiDAR row: unparsable, non-finite, a stamp
+/// out of order, an image file missing), which is skipped and counted in Dataset::skipped unless
+/// policy.strict (io/skipped_records.hpp).
+Dataset loadDataset(const std::filesystem::path& root, const RecordPolicy& policy = {});
 
 /// A ground-truth file for `ds` (`ovo run --gt`): TUM, KITTI or EuRoC csv, as readTrajectory()
 /// reads it. On a KITTI folder a KITTI-format file is taken as the folder's own poses file is:
@@ -71,11 +76,13 @@ Trajectory readGroundtruthFor(const Dataset& ds, const std::filesystem::path& fi
 /// T_B_C of the KITTI rig: body x forward, y left, z up at the camera centre, camera pitch 0.
 SE3 kittiBodyFromCamera();
 
-/// The image as 8-bit grey (colour is converted). Throws ovo::Error naming the file when it is
-/// missing or does not decode.
+/// The image as 8-bit grey (colour is converted), through io/image_decode (no codec library
+/// prints). Throws a RecordError naming the file when it is missing (reason "missing_file") or
+/// does not decode (truncated, corrupt: "decode").
 cv::Mat loadImageGrey(const ImageEntry& entry);
 /// Image `index` of the dataset, as loadImageGrey, checked against the calibration's image size
-/// (throws ovo::Error naming the image and the calibration file when they differ).
+/// (a RecordError "size" naming the image and the calibration file when they differ; checked
+/// before decoding when the file's header tells).
 cv::Mat loadDatasetImage(const Dataset& ds, std::size_t index);
 
 /// The camera's pose in the body frame: the rig file's T_B_C when it gives one, else the camera
