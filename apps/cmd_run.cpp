@@ -22,6 +22,7 @@
 #include "common/error.hpp"
 #include "io/dataset.hpp"
 #include "io/staged_folder.hpp"
+#include "io/text_reader.hpp"
 #include "io/trajectory_io.hpp"
 
 namespace ovo::app {
@@ -60,11 +61,9 @@ const LidarScan* nearestScan(const std::vector<LidarScan>& scans, Timestamp t_ns
   return best;
 }
 
+// Checked to the end, the close included (a full disk shows at the last flush).
 void writeText(const std::filesystem::path& file, const std::string& text) {
-  std::ofstream out(file);
-  if (!out) fail("cannot write '{}'", file.string());
-  out << text;
-  if (!out) fail("error while writing '{}'", file.string());
+  io::writeFileAtomically(file, text);
 }
 
 int runRun(const RunArgs& args) {
