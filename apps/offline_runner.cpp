@@ -235,7 +235,6 @@ void runPipelined(const io::Dataset& data, estimator::Estimator& est, const Prog
   std::size_t next_imu = 0, next_scan = 0;
   EstimatorStage stage{est};
   while (auto item = queue.pop()) {
-    if (queue.error()) break;
     estimator::feedUntilImage(data.images[item->index].t_ns, data.imu, next_imu, data.scans,
                               next_scan, stage);
     keepFrame(result, est.update(std::move(item->frame)), item->grey, on_frame);
