@@ -1,7 +1,9 @@
-// Fuzz targets for the camera calibration readers: OCamCalib calib_results.txt, and the YAML
-// calibrations (EuRoC sensor.yaml, Kalibr camchain) with their extrinsics. A camera that loads is
-// used a little (project / unproject), since a reader that accepts nonsense shows up there.
+// Fuzz targets for the calibration readers: OCamCalib calib_results.txt, the YAML camera
+// calibrations (EuRoC sensor.yaml, Kalibr camchain) with their extrinsics, and rig.yaml
+// (extrinsics, noise figures). A camera that loads is used a little (project / unproject), since a
+// reader that accepts nonsense shows up there.
 #include "camera/calib_io.hpp"
+#include "io/dataset.hpp"
 #include "tests/fuzz/fuzz_target.hpp"
 
 namespace {
@@ -26,4 +28,9 @@ OVO_FUZZ_TARGET(camera_yaml) {
   const auto file = ovo::fuzz::writeScratch("sensor.yaml", input);
   ovo::fuzz::expectOnlyOvoErrors([&] { useCamera(ovo::camera::loadCamera(file)); });
   ovo::fuzz::expectOnlyOvoErrors([&] { (void)ovo::camera::readSensorYamlExtrinsics(file); });
+}
+
+OVO_FUZZ_TARGET(rig_yaml) {
+  const auto file = ovo::fuzz::writeScratch("rig.yaml", input);
+  ovo::fuzz::expectOnlyOvoErrors([&] { (void)ovo::io::readRigYaml(file); });
 }

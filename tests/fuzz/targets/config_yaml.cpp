@@ -1,6 +1,5 @@
-// Fuzz targets for the YAML files a user writes: rig.yaml (extrinsics, noise figures) and the
-// estimator configuration (--config; its first line is also tried as a --set override), read
-// by every module's options reader.
+// Fuzz target for the estimator configuration (--config): parsed, its first line also tried as a
+// --set override, then read by every module's options reader.
 #include <string>
 
 #include "common/config.hpp"
@@ -12,13 +11,7 @@
 #include "factors/gyro_preintegration.hpp"
 #include "frontend/frontend.hpp"
 #include "frontend/relative_pose.hpp"
-#include "io/dataset.hpp"
 #include "tests/fuzz/fuzz_target.hpp"
-
-OVO_FUZZ_TARGET(rig_yaml) {
-  const auto file = ovo::fuzz::writeScratch("rig.yaml", input);
-  ovo::fuzz::expectOnlyOvoErrors([&] { (void)ovo::io::readRigYaml(file); });
-}
 
 OVO_FUZZ_TARGET(config_yaml) {
   const std::string text(reinterpret_cast<const char*>(input.data()), input.size());
