@@ -84,6 +84,7 @@ std::int64_t TextReader::integer(std::string_view token, std::string_view what) 
 }
 
 Timestamp TextReader::secondsToNs(std::string_view token, std::string_view what) const {
+  constexpr std::int64_t kMaxSeconds = 9'000'000'000;  // int64 ns reach 9.2e9 s
   std::string_view t = token;
   bool negative = false;
   if (!t.empty() && (t.front() == '+' || t.front() == '-')) {
@@ -104,6 +105,10 @@ Timestamp TextReader::secondsToNs(std::string_view token, std::string_view what)
       whole.size() <= 10) {
     std::int64_t s = 0, ns = 0;
     for (char c : whole) s = s * 10 + (c - '0');
+    // As in the scientific branch: 9e9 s (year 2255) and beyond would overflow int64 ns.
+    if (s > kMaxSeconds)
+      reject("unparsable", "expected a time in seconds of at most {} for {}, got '{}'", kMaxSeconds,
+             what, token);
     std::int64_t scale = 100000000;
     for (std::size_t i = 0; i < frac.size() && i < 9; ++i, scale /= 10)
       ns += (frac[i] - '0') * scale;
@@ -117,7 +122,7 @@ Timestamp TextReader::secondsToNs(std::string_view token, std::string_view what)
   const long double v = std::strtold(copy.c_str(), &end);
   if (copy.empty() || end != copy.c_str() + copy.size())
     reject("unparsable", "expected a time in seconds for {}, got '{}'", what, token);
-  if (!std::isfinite(v) || std::fabs(v) > 9.0e9L)
+  if (!std::isfinite(v) || std::fabs(v) > static_cast<long double>(kMaxSeconds))
     reject("unparsable", "expected a finite time in seconds for {}, got '{}'", what, token);
   return static_cast<Timestamp>(std::llround(v * 1.0e9L));
 }

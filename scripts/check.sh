@@ -155,7 +155,7 @@ run_fuzz_target() {
   start=$(date +%s)
   # Images: OpenCV's own limit for formats ovo does not check first (1 Gpx by default).
   OPENCV_IO_MAX_IMAGE_PIXELS=16777216 ASAN_OPTIONS="$ASAN_OPTIONS" \
-    nice -n 10 "$dir/fuzz/fuzz_$t" -max_total_time="$secs" -timeout=20 -rss_limit_mb=2048 \
+    nice -n 5 "$dir/fuzz/fuzz_$t" -max_total_time="$secs" -timeout=20 -rss_limit_mb=2048 \
     -max_len=65536 -print_final_stats=1 -artifact_prefix="$art/" "$corpus" >"$log" 2>&1 || status=$?
   end=$(date +%s)
   local runs cov ft
@@ -175,8 +175,9 @@ cmd_fuzz() {
   CC=clang CXX=clang++ configure "$dir" -DCMAKE_BUILD_TYPE=RelWithDebInfo \
     "-DCMAKE_CXX_FLAGS_RELWITHDEBINFO=-O1 -g" -DOVO_FUZZ=ON -DOVO_SANITIZE=address,undefined \
     -DOVO_BUILD_TESTS=OFF -DOVO_BUILD_BENCH=OFF
-  cmake --build "$dir" -j "$JOBS" --target ovo_fuzz_all
-  local targets=("$@")
+  local targets=("$@") build_targets=(ovo_fuzz_all)
+  if [ ${#targets[@]} -gt 0 ]; then build_targets=("${targets[@]/#/fuzz_}"); fi
+  cmake --build "$dir" -j "$JOBS" --target "${build_targets[@]}"
   if [ ${#targets[@]} -eq 0 ]; then
     mapfile -t targets < <(find "$dir/fuzz" -maxdepth 1 -name 'fuzz_*' -type f -printf '%f\n' | sed 's/^fuzz_//' | sort)
   fi
