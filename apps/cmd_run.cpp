@@ -23,6 +23,7 @@
 #include "common/error.hpp"
 #include "io/dataset.hpp"
 #include "io/staged_folder.hpp"
+#include "io/text_reader.hpp"
 #include "io/trajectory_io.hpp"
 
 namespace ovo::app {
@@ -41,6 +42,7 @@ struct RunArgs {
   bool json = false;
   bool realtime = false;
   bool serial = false;
+  bool strict = false;  // a bad record in a stream is an error (else skipped and counted)
   double rate = 1.0;
   int queue_depth = 2;
   bool viewer = false;
@@ -62,11 +64,9 @@ const LidarScan* nearestScan(const std::vector<LidarScan>& scans, Timestamp t_ns
   return best;
 }
 
+// Checked to the end, the close included (a full disk shows at the last flush).
 void writeText(const std::filesystem::path& file, const std::string& text) {
-  std::ofstream out(file);
-  if (!out) fail("cannot write '{}'", file.string());
-  out << text;
-  if (!out) fail("error while writing '{}'", file.string());
+  io::writeFileAtomically(file, text);
 }
 
 int runRun(const RunArgs& args) {
@@ -80,8 +80,12 @@ int runRun(const RunArgs& args) {
     config.applyOverride("window.refine=" + args.refine);
   }
 
-  const io::Dataset data = io::loadDataset(args.dataset, {args.rig, args.topics});
+  const io::RecordPolicy records{.strict = args.strict};
+  const io::Dataset data =
+      io::loadDataset(args.dataset, {.rig = args.rig, .topics = args.topics, .strict = args.strict});
   if (data.images.empty()) fail("{}: the dataset has no images", args.dataset);
+  for (const auto& kind : data.skipped.kinds()) warnSkipped(kind);
+  io::SkippedRecords skipped = data.skipped;
   Trajectory groundtruth = data.groundtruth;
   if (!args.gt.empty()) groundtruth = io::readGroundtruthFor(data, args.gt);
 
@@ -133,6 +137,7 @@ int runRun(const RunArgs& args) {
       RealtimeOptions options;
       options.rate = args.rate;
       options.pipeline.image_queue_depth = args.queue_depth;
+      options.records = records;
       OnlinePipeline::OutputCallback on_output;
       if (viewer)
         on_output = [&](const OnlineOutput& o) {
@@ -146,6 +151,7 @@ int runRun(const RunArgs& args) {
       timing.frames_dropped = r.stats.frames_dropped;
       timing.latency_ms = r.stats.latency_ms;
       replay_lag_ms_max = r.replay_lag_ms_max;
+      skipped.merge(r.skipped);
     } else {
       FrameFn on_frame;
       if (viewer)
@@ -153,8 +159,10 @@ int runRun(const RunArgs& args) {
           if (const LidarScan* scan = nearestScan(data.scans, f.t_ns)) viewer->addScan(*scan);
           viewer->addFrame(f, grey);
         };
-      OfflineRunResult r = runOffline(data, *est, progress, on_frame, {.pipelined = !args.serial});
+      OfflineRunResult r = runOffline(data, *est, progress, on_frame,
+                                      {.pipelined = !args.serial, .records = records});
       frames = std::move(r.frames);
+      skipped.merge(r.skipped);
       timing.wall_s = r.wall_s;
     }
   };
@@ -188,6 +196,7 @@ int runRun(const RunArgs& args) {
   estimator::EstimatorStats stats = est->stats();
   stats.notes.insert(stats.notes.begin(), setup_notes.begin(), setup_notes.end());
   nlohmann::json metrics = computeRunMetrics(trajectory, groundtruth, stats, timing);
+  metrics["skipped"] = skipped.toJson();
   if (args.realtime) {
     metrics["realtime_rate"] = args.rate;
     metrics["timing"]["replay_lag_ms_max"] = replay_lag_ms_max;
@@ -277,6 +286,11 @@ CommandRunner setupRun(CLI::App& sub) {
       ->check(CLI::Range(1, 1000))
       ->needs(realtime)
       ->capture_default_str();
+  sub.add_flag("--strict", args->strict,
+               "A bad record in a stream (an image that does not decode, a gyro or LiDAR row that "
+               "does not parse, a stamp out of order) is an error naming the file and line; by "
+               "default it is skipped, warned about once per kind and counted in metrics.json's "
+               "skipped");
   sub.add_flag("--viewer", args->viewer,
                "Live window: image with tracks and LiDAR points, top view (needs a display)");
   sub.add_option("--viewer-snapshot", args->viewer_snapshot,

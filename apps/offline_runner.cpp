@@ -1,6 +1,7 @@
 #include "apps/offline_runner.hpp"
 
 #include <fmt/format.h>
+#include <spdlog/spdlog.h>
 
 #include <chrono>
 #include <condition_variable>
@@ -29,6 +30,13 @@ struct EstimatorStage {
   void addScan(const LidarScan& scan) { est.addScan(scan); }
 };
 
+// A bad image: thrown when strict, else counted (and warned about when the first of its kind).
+void skipImage(const io::RecordError& bad, const io::RecordPolicy& policy,
+               io::SkippedRecords& skipped) {
+  if (policy.strict) throw bad;
+  if (skipped.add("camera", bad.reason(), bad.what())) warnSkipped(skipped.kinds().back(), true);
+}
+
 void keepFrame(OfflineRunResult& result, estimator::FrameEstimate estimate, const cv::Mat& grey,
                const FrameFn& on_frame) {
   result.frames.push_back(std::move(estimate));
@@ -37,14 +45,17 @@ void keepFrame(OfflineRunResult& result, estimator::FrameEstimate estimate, cons
 }
 
 void runInSequence(const io::Dataset& data, estimator::Estimator& est, const ProgressFn& progress,
-                   const FrameFn& on_frame, OfflineRunResult& result) {
+                   const FrameFn& on_frame, const io::RecordPolicy& policy,
+                   OfflineRunResult& result) {
   std::size_t next_imu = 0, next_scan = 0;
   const int total = static_cast<int>(data.images.size());
   for (int i = 0; i < total; ++i) {
     const auto& entry = data.images[i];
-    estimator::feedUntilImage(entry.t_ns, data.imu, next_imu, data.scans, next_scan, est);
-    const cv::Mat grey = io::loadDatasetImage(data, i);  // a bad image is an error naming the file
-    keepFrame(result, est.addImage(entry.t_ns, grey), grey, on_frame);
+    // A skipped image's gyro samples and scans go with the next image.
+    if (const auto grey = loadImageOrSkip(data, i, policy, result.skipped)) {
+      estimator::feedUntilImage(entry.t_ns, data.imu, next_imu, data.scans, next_scan, est);
+      keepFrame(result, est.addImage(entry.t_ns, *grey), *grey, on_frame);
+    }
     if (progress) progress(i + 1, total);
   }
   while (next_imu < data.imu.size()) est.addGyro(data.imu[next_imu++]);
@@ -56,6 +67,7 @@ class StageQueue {
   struct Item {
     std::unique_ptr<estimator::FrontendFrame> frame;
     cv::Mat grey;
+    std::size_t index = 0;  // in data.images
   };
 
   // Frontend: blocks until update() is done for `updates` frames (false: stopping).
@@ -71,7 +83,7 @@ class StageQueue {
     }
     changed_.notify_all();
   }
-  // Estimator: the next tracked frame; nullopt when the frontend failed or stopped.
+  // Estimator: the next tracked frame; nullopt when the frontend failed, stopped or is done.
   std::optional<Item> pop() {
     std::unique_lock lock(mutex_);
     changed_.wait(lock, [&] { return stop_ || !items_.empty(); });
@@ -128,23 +140,36 @@ class ImagePrefetcher {
     thread_.join();
   }
 
-  // The next image in order; a decoding error (naming the file) is rethrown when its image is due.
-  cv::Mat next() {
+  // The next image in order (nullopt: skipped, counted in `skipped`, which only the consumer
+  // touches); an error (naming the file) is rethrown when its image is due.
+  std::optional<cv::Mat> next(const io::RecordPolicy& policy, io::SkippedRecords& skipped) {
     std::unique_lock lock(mutex_);
     changed_.wait(lock, [&] { return !images_.empty() || error_; });
     if (images_.empty()) std::rethrow_exception(error_);
-    cv::Mat image = std::move(images_.front());
+    Decoded d = std::move(images_.front());
     images_.pop_front();
     changed_.notify_all();
-    return image;
+    lock.unlock();
+    if (d.bad) {
+      skipImage(*d.bad, policy, skipped);
+      return std::nullopt;
+    }
+    return std::move(d.image);
   }
 
  private:
+  struct Decoded {
+    cv::Mat image;
+    std::optional<io::RecordError> bad;  // the image cannot be used
+  };
+
   void run() {
     for (std::size_t i = 0; i < data_.images.size(); ++i) {
-      cv::Mat image;
+      Decoded d;
       try {
-        image = io::loadDatasetImage(data_, i);
+        d.image = io::loadDatasetImage(data_, i);
+      } catch (const io::RecordError& e) {
+        d.bad = e;
       } catch (...) {
         std::lock_guard lock(mutex_);
         error_ = std::current_exception();
@@ -154,7 +179,7 @@ class ImagePrefetcher {
       std::unique_lock lock(mutex_);
       changed_.wait(lock, [&] { return stop_ || images_.size() < kPrefetchImages; });
       if (stop_) return;
-      images_.push_back(std::move(image));
+      images_.push_back(std::move(d));
       changed_.notify_all();
     }
   }
@@ -162,31 +187,37 @@ class ImagePrefetcher {
   const io::Dataset& data_;
   std::mutex mutex_;
   std::condition_variable changed_;
-  std::deque<cv::Mat> images_;
+  std::deque<Decoded> images_;
   std::exception_ptr error_;
   bool stop_ = false;
   std::thread thread_;  // last: starts once the members above exist
 };
 
 void runPipelined(const io::Dataset& data, estimator::Estimator& est, const ProgressFn& progress,
-                  const FrameFn& on_frame, OfflineRunResult& result) {
+                  const FrameFn& on_frame, const io::RecordPolicy& policy,
+                  OfflineRunResult& result) {
   const int total = static_cast<int>(data.images.size());
   StageQueue queue;
   std::size_t frontend_imu = 0;  // the frontend thread's cursor
+  io::SkippedRecords skipped;    // the frontend thread's until it is joined
   ImagePrefetcher images(data);  // outlives the frontend thread
   std::thread frontend([&] {
     try {
       std::size_t no_scan = data.scans.size();
       FrontendStage stage{est};
+      int tracked = 0;
       for (int i = 0; i < total; ++i) {
         const auto& entry = data.images[i];
-        cv::Mat grey = images.next();  // a bad image is an error naming the file
+        std::optional<cv::Mat> grey = images.next(policy, skipped);
+        if (!grey) continue;  // skipped: its gyro samples go with the next image
         estimator::feedUntilImage(entry.t_ns, data.imu, frontend_imu, data.scans, no_scan, stage);
-        // track(i) after update(i - 1 - lead): the frontend runs up to `lead` frames ahead.
-        if (!queue.waitForUpdates(i - estimator::kFrontendLeadFrames)) return;
-        auto frame = est.track(entry.t_ns, grey);
-        queue.push({std::move(frame), std::move(grey)});
+        // track(k) after update(k - 1 - lead): the frontend runs up to `lead` frames ahead.
+        if (!queue.waitForUpdates(tracked - estimator::kFrontendLeadFrames)) return;
+        auto frame = est.track(entry.t_ns, *grey);
+        queue.push({std::move(frame), std::move(*grey), static_cast<std::size_t>(i)});
+        ++tracked;
       }
+      queue.stop();  // done: the estimator stage takes what is queued, then ends
     } catch (...) {
       queue.stop(std::current_exception());
     }
@@ -197,26 +228,56 @@ void runPipelined(const io::Dataset& data, estimator::Estimator& est, const Prog
     std::thread& thread;
     ~Join() {
       queue.stop();
-      thread.join();
+      if (thread.joinable()) thread.join();
     }
   } join{queue, frontend};
 
   std::size_t next_imu = 0, next_scan = 0;
   EstimatorStage stage{est};
-  for (int i = 0; i < total; ++i) {
-    auto item = queue.pop();
-    if (!item) break;
-    estimator::feedUntilImage(data.images[i].t_ns, data.imu, next_imu, data.scans, next_scan,
-                              stage);
+  while (auto item = queue.pop()) {
+    estimator::feedUntilImage(data.images[item->index].t_ns, data.imu, next_imu, data.scans,
+                              next_scan, stage);
     keepFrame(result, est.update(std::move(item->frame)), item->grey, on_frame);
     queue.updateDone();
-    if (progress) progress(i + 1, total);
+    if (progress) progress(static_cast<int>(item->index) + 1, total);
   }
+  frontend.join();
+  result.skipped.merge(skipped);
   if (auto error = queue.error()) std::rethrow_exception(error);
+  if (progress) progress(total, total);
   while (next_imu < data.imu.size()) est.addGyro(data.imu[next_imu++]);
 }
 
 }  // namespace
+
+std::optional<cv::Mat> loadImageOrSkip(const io::Dataset& data, std::size_t index,
+                                       const io::RecordPolicy& policy,
+                                       io::SkippedRecords& skipped) {
+  try {
+    return io::loadDatasetImage(data, index);
+  } catch (const io::RecordError& e) {
+    skipImage(e, policy, skipped);
+    return std::nullopt;
+  }
+}
+
+void warnSkipped(const io::SkippedRecords::Kind& kind, bool more_may_follow) {
+  if (more_may_follow)
+    spdlog::warn(
+        "{}: bad record skipped ({}): {} (more of this kind are skipped without a word; "
+        "metrics.json's skipped counts them)",
+        kind.sensor, kind.reason, kind.first);
+  else
+    spdlog::warn("{} (metrics.json's skipped counts them)", io::SkippedRecords::describe(kind));
+}
+
+void failNoUsableImage(const io::Dataset& data, const io::SkippedRecords& skipped) {
+  for (const auto& k : skipped.kinds())
+    if (k.sensor == "camera")
+      fail("{}: none of the {} images could be used; the first: {}", data.root.string(),
+           data.images.size(), k.first);
+  fail("{}: no image was processed", data.root.string());
+}
 
 estimator::SensorSetup sensorSetupFrom(const io::Dataset& data) {
   if (!data.camera) fail("{}: the dataset has no camera calibration", data.root.string());
@@ -252,9 +313,10 @@ OfflineRunResult runOffline(const io::Dataset& data, estimator::Estimator& est,
   OfflineRunResult result;
   const auto t0 = Clock::now();
   if (options.pipelined)
-    runPipelined(data, est, progress, on_frame, result);
+    runPipelined(data, est, progress, on_frame, options.records, result);
   else
-    runInSequence(data, est, progress, on_frame, result);
+    runInSequence(data, est, progress, on_frame, options.records, result);
+  if (result.frames.empty() && !data.images.empty()) failNoUsableImage(data, result.skipped);
   est.finish();
   result.wall_s = std::chrono::duration<double>(Clock::now() - t0).count();
   return result;

@@ -20,10 +20,12 @@ namespace ovo::app {
 struct OfflineRunResult {
   std::vector<estimator::FrameEstimate> frames;  // as returned by update()
   double wall_s = 0.0;                           // whole run including image decoding
+  io::SkippedRecords skipped;                    // images skipped (missing, corrupt, wrong size)
 };
 
 struct OfflineOptions {
-  bool pipelined = true;  // frontend and estimator stages on two threads (same poses)
+  bool pipelined = true;     // frontend and estimator stages on two threads (same poses)
+  io::RecordPolicy records;  // strict: an image that cannot be used is an error (else skipped)
 };
 
 /// Progress callback: (frames done, frames total).
@@ -35,11 +37,26 @@ using FrameFn = std::function<void(const estimator::FrameEstimate&, const cv::Ma
 /// Runs `est` over `data`; gyro samples up to and including the first one after each image time
 /// are fed before the image (so preintegration can interpolate at the frame time). The stored
 /// estimates keep no tracks (FrameEstimate::tracks, for viewers, goes to on_frame only).
-/// Callbacks run on the calling thread. An exception from either stage (a corrupt image, ...)
-/// stops both and is rethrown here.
+/// Callbacks run on the calling thread. An image that cannot be used (missing, truncated,
+/// corrupt, of another size than the calibration's) is skipped, counted in result.skipped and
+/// warned about once per kind (loadImageOrSkip), unless options.records.strict; a run left without
+/// any usable image is an error. An exception from either stage stops both and is rethrown here.
 OfflineRunResult runOffline(const io::Dataset& data, estimator::Estimator& est,
                             const ProgressFn& progress = {}, const FrameFn& on_frame = {},
                             const OfflineOptions& options = {});
+
+/// Image `index` of `data` (io::loadDatasetImage), or nullopt when it cannot be used and the policy
+/// skips it: then it is counted in `skipped`, and the first of each kind is logged as a warning.
+/// Strict: the io::RecordError is thrown.
+std::optional<cv::Mat> loadImageOrSkip(const io::Dataset& data, std::size_t index,
+                                       const io::RecordPolicy& policy, io::SkippedRecords& skipped);
+
+/// Logs the warning for a kind of skipped record: its count, reason and first record; with
+/// more_may_follow (a run going on), that the rest of its kind are skipped quietly.
+void warnSkipped(const io::SkippedRecords::Kind& kind, bool more_may_follow = false);
+
+/// The error for a run in which no image could be used (names the first one's problem).
+[[noreturn]] void failNoUsableImage(const io::Dataset& data, const io::SkippedRecords& skipped);
 
 /// The estimator's view of a dataset's sensors.
 estimator::SensorSetup sensorSetupFrom(const io::Dataset& data);

@@ -41,8 +41,12 @@ RealtimeRunResult runRealtime(const io::Dataset& data, estimator::Estimator& est
   auto timeOf = [&](std::size_t i, std::size_t n, auto&& get) { return i < n ? get(i) : kNever; };
   const ReplaySpan span = replaySpan(data);
 
-  cv::Mat prefetched;  // the next image, decoded ahead of its time
-  if (n_images) prefetched = io::loadDatasetImage(data, 0);
+  // The next image, decoded ahead of its time (nullopt: skipped).
+  auto load = [&](std::size_t i) {
+    return loadImageOrSkip(data, i, options.records, result.skipped);
+  };
+  std::optional<cv::Mat> prefetched;
+  if (n_images) prefetched = load(0);
   const auto start = Clock::now();
   pipeline.start();
   auto sleepUntilSensorTime = [&](Timestamp t_ns) {
@@ -71,13 +75,16 @@ RealtimeRunResult runRealtime(const io::Dataset& data, estimator::Estimator& est
       const double lag_ms =
           std::chrono::duration<double, std::milli>(Clock::now() - target).count();
       result.replay_lag_ms_max = std::max(result.replay_lag_ms_max, lag_ms);
-      pipeline.addImage(t_img, prefetched);
+      if (prefetched) pipeline.addImage(t_img, *prefetched);
       ++next_image;
       if (progress) progress(static_cast<int>(next_image), static_cast<int>(n_images));
-      prefetched = next_image < n_images ? io::loadDatasetImage(data, next_image) : cv::Mat();
+      prefetched.reset();
+      if (next_image < n_images) prefetched = load(next_image);
     }
   }
   pipeline.stop();
+  if (result.frames.empty() && n_images && !result.skipped.empty())
+    failNoUsableImage(data, result.skipped);
   result.wall_s = std::chrono::duration<double>(Clock::now() - start).count();
   result.stats = pipeline.stats();
   return result;

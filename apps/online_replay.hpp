@@ -16,6 +16,7 @@ namespace ovo::app {
 struct RealtimeOptions {
   double rate = 1.0;  // replay speed: 2 replays twice as fast as recorded
   OnlineOptions pipeline;
+  io::RecordPolicy records;  // strict: an image that cannot be used is an error (else skipped)
 };
 
 struct RealtimeRunResult {
@@ -23,6 +24,7 @@ struct RealtimeRunResult {
   OnlineStats stats;
   double wall_s = 0.0;             // first measurement handed in -> pipeline stopped
   double replay_lag_ms_max = 0.0;  // worst lateness of an image hand-over (decoding, scheduling)
+  io::SkippedRecords skipped;      // images skipped (loadImageOrSkip)
 };
 
 /// The sensor times the replay clock runs over: from the first camera frame to the last (without
@@ -38,7 +40,8 @@ ReplaySpan replaySpan(const io::Dataset& data);
 
 /// Replays `data` into an OnlinePipeline driving `est` on the calling thread (the replay thread;
 /// the pipeline adds its frontend and estimator threads). on_output runs on the estimator thread
-/// for every processed frame (e.g. the viewer); progress gets (frames handed in, total).
+/// for every processed frame (e.g. the viewer); progress gets (frames handed in, total). An image
+/// that cannot be used is skipped as in runOffline (its time passes without a frame).
 RealtimeRunResult runRealtime(const io::Dataset& data, estimator::Estimator& est,
                               const RealtimeOptions& options,
                               const OnlinePipeline::OutputCallback& on_output = {},

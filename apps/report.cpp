@@ -7,6 +7,7 @@
 
 #include "apps/svg_plot.hpp"
 #include "common/error.hpp"
+#include "io/text_reader.hpp"
 
 namespace ovo::app {
 namespace {
@@ -195,10 +196,8 @@ std::string renderReportHtml(const ReportInputs& in) {
 }
 
 void writeReport(const std::filesystem::path& file, const ReportInputs& inputs) {
-  std::ofstream out(file);
-  if (!out) fail("cannot write '{}'", file.string());
-  out << renderReportHtml(inputs);
-  if (!out) fail("error while writing '{}'", file.string());
+  // Checked to the end, the close included: a full disk shows at the last flush.
+  io::writeFileAtomically(file, renderReportHtml(inputs));
 }
 
 }  // namespace ovo::app

@@ -114,6 +114,9 @@ std::string where(const fs::path& file, const YAML::Node& node) {
 }
 
 YAML::Node requireKey(const fs::path& file, const YAML::Node& parent, const std::string& key) {
+  if (!parent.IsMap())
+    fail("{}: expected a mapping holding '{}', got {}", where(file, parent), key,
+         parent.IsSequence() ? "a list" : "a value");
   const YAML::Node node = parent[key];
   if (!node) fail("{}: missing key '{}'", where(file, parent), key);
   return node;
@@ -168,7 +171,11 @@ SE3 transformFrom(const fs::path& file, const YAML::Node& node, const std::strin
 // The camera block: the document itself (EuRoC sensor.yaml) or its cam0 (Kalibr camchain).
 YAML::Node cameraBlock(const fs::path& file, const YAML::Node& doc) {
   if (!doc.IsMap()) fail("{}: expected a YAML mapping at the top", file.string());
-  if (doc["cam0"]) return doc["cam0"];
+  if (const YAML::Node cam0 = doc["cam0"]) {
+    // A value or a list there: yaml-cpp's operator[] on it threw its own exception (fuzzing).
+    if (!cam0.IsMap()) fail("{}: 'cam0' must be a mapping (the camera's keys)", where(file, cam0));
+    return cam0;
+  }
   return doc;
 }
 

@@ -31,7 +31,13 @@ void check(const YAML::Node& node, const std::string& source, int depth, long& n
         failAt(source, line, "key '{}' given twice (first on line {}); remove one", it->first,
                it->second);
     } else {
-      check(kv.first, source, depth + 1, nodes);  // a complex key can hold an alias too
+      // A list, a mapping or nothing as a key: no ovo file has one, and every reader takes keys
+      // as text (yaml-cpp threw its own exception, which no message of ovo's caught).
+      failAt(source, kv.first.Mark().line + 1,
+             "expected a plain key (text) before ':', got {} (a YAML complex key)",
+             kv.first.IsNull()  ? "nothing"
+             : kv.first.IsMap() ? "a mapping"
+                                : "a list");
     }
     check(kv.second, source, depth + 1, nodes);
   }

@@ -18,7 +18,8 @@ inline constexpr long kYamlMaxNodes = 100000;
 ///   the "billion laughs");
 /// - the first mapping (at any depth) that holds a key twice: yaml-cpp keeps both entries and a
 ///   lookup returns the first, so a later line that was meant to change a value would be
-///   silently ignored.
+///   silently ignored;
+/// - a key that is not plain text (a list, a mapping or nothing: a YAML complex key).
 /// Every YAML reader calls this right after parsing, before anything else walks the document.
 void checkYamlDocument(const YAML::Node& node, const std::string& source);
 

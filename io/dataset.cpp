@@ -3,13 +3,14 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <opencv2/imgcodecs.hpp>
 #include <regex>
 
 #include "camera/calib_io.hpp"
 #include "common/config.hpp"
 #include "common/error.hpp"
 #include "io/bag_dataset.hpp"
+#include "io/image_decode.hpp"
+#include "io/record_stream.hpp"
 #include "io/text_reader.hpp"
 #include "io/trajectory_io.hpp"
 
@@ -53,23 +54,22 @@ SE3 rigidFrom(const Eigen::Matrix4d& M, const std::string& where, const std::str
   return T;
 }
 
-std::vector<ImageEntry> readImageList(const fs::path& cam_dir) {
+std::vector<ImageEntry> readImageList(const fs::path& cam_dir, const RecordPolicy& policy,
+                                      SkippedRecords& skipped) {
   const fs::path csv = cam_dir / "data.csv";
   if (!fs::exists(csv))
     fail("{}: missing (expected the image list: #timestamp [ns],filename)", csv.string());
   TextReader in(csv, "the image list: #timestamp [ns],filename");
-  std::vector<ImageEntry> images;
-  std::vector<std::string_view> tok;
-  while (in.next(tok)) {
+  auto images = readRecordStream(in, "camera", policy, skipped, [&](const auto& tok) {
     if (tok.size() != 2)
-      in.fail("expected 2 columns (timestamp [ns], filename), got {}", tok.size());
+      in.reject("columns", "expected 2 columns (timestamp [ns], filename), got {}", tok.size());
     ImageEntry e;
     e.t_ns = in.integer(tok[0], "the time stamp [ns]");
-    checkIncreasing(in, images.empty() ? 0 : images.back().t_ns, e.t_ns, images.empty());
     e.path = cam_dir / "data" / std::string(tok[1]);
-    if (!fs::is_regular_file(e.path)) in.fail("image file {} does not exist", e.path.string());
-    images.push_back(std::move(e));
-  }
+    if (!fs::is_regular_file(e.path))
+      in.reject("missing_file", "image file {} does not exist", e.path.string());
+    return e;
+  });
   if (images.empty()) fail("{}: no images listed", csv.string());
   return images;
 }
@@ -78,65 +78,64 @@ std::vector<ImageEntry> readImageList(const fs::path& cam_dir) {
 // would overflow the rotation integration.
 constexpr double kMaxGyroRadps = 1000.0;
 
-std::vector<ImuSample> readImu(const fs::path& csv) {
+std::vector<ImuSample> readImu(const fs::path& csv, const RecordPolicy& policy,
+                               SkippedRecords& skipped) {
   TextReader in(csv, "IMU samples: t[ns], w_x, w_y, w_z [rad/s], a_x, a_y, a_z [m/s^2]");
-  std::vector<ImuSample> imu;
-  std::vector<std::string_view> tok;
-  while (in.next(tok)) {
+  auto imu = readRecordStream(in, "gyro", policy, skipped, [&](const auto& tok) {
     if (tok.size() != 7)
-      in.fail("expected 7 columns (t[ns], w_x, w_y, w_z [rad/s], a_x, a_y, a_z [m/s^2]), got {}",
-              tok.size());
+      in.reject("columns",
+                "expected 7 columns (t[ns], w_x, w_y, w_z [rad/s], a_x, a_y, a_z [m/s^2]), got {}",
+                tok.size());
     ImuSample s;
     s.t_ns = in.integer(tok[0], "the time stamp [ns]");
-    checkIncreasing(in, imu.empty() ? 0 : imu.back().t_ns, s.t_ns, imu.empty());
     s.gyro_radps =
         Vec3(in.number(tok[1], "w_x"), in.number(tok[2], "w_y"), in.number(tok[3], "w_z"));
     for (int k = 0; k < 3; ++k)
       if (std::abs(s.gyro_radps[k]) > kMaxGyroRadps)
-        in.fail("w_{} = {} rad/s is no gyro reading (expected at most {} rad/s in magnitude)",
-                "xyz"[k], s.gyro_radps[k], kMaxGyroRadps);
+        in.reject("out_of_range",
+                  "w_{} = {} rad/s is no gyro reading (expected at most {} rad/s in magnitude)",
+                  "xyz"[k], s.gyro_radps[k], kMaxGyroRadps);
     s.accel_mps2 =
         Vec3(in.number(tok[4], "a_x"), in.number(tok[5], "a_y"), in.number(tok[6], "a_z"));
-    imu.push_back(s);
-  }
+    return s;
+  });
   if (imu.empty()) fail("{}: no IMU samples (remove the file when there is no IMU)", csv.string());
   return imu;
 }
 
-std::vector<LidarScan> readLidar(const fs::path& csv) {
+std::vector<LidarScan> readLidar(const fs::path& csv, const RecordPolicy& policy,
+                                 SkippedRecords& skipped) {
   TextReader in(csv,
                 "LiDAR scans: t[ns], angle_min, angle_increment [rad], range_min, range_max, "
                 "ranges [m]...");
-  std::vector<LidarScan> scans;
-  std::vector<std::string_view> tok;
   std::size_t columns = 0;
-  while (in.next(tok)) {
+  auto scans = readRecordStream(in, "lidar", policy, skipped, [&](const auto& tok) {
     if (tok.size() < 6)
-      in.fail(
-          "expected t[ns], angle_min, angle_increment, range_min, range_max and at least one "
-          "range, got {} columns",
-          tok.size());
-    if (columns == 0) columns = tok.size();
-    if (tok.size() != columns)
-      in.fail("expected {} columns like the first scan, got {}", columns, tok.size());
+      in.reject("columns",
+                "expected t[ns], angle_min, angle_increment, range_min, range_max and at least one "
+                "range, got {} columns",
+                tok.size());
+    if (columns != 0 && tok.size() != columns)
+      in.reject("columns", "expected {} columns like the first scan, got {}", columns, tok.size());
     LidarScan s;
     s.t_ns = in.integer(tok[0], "the time stamp [ns]");
-    checkIncreasing(in, scans.empty() ? 0 : scans.back().t_ns, s.t_ns, scans.empty());
     s.angle_min_rad = in.number(tok[1], "angle_min [rad]");
     s.angle_increment_rad = in.number(tok[2], "angle_increment [rad]");
     s.range_min_m = in.number(tok[3], "range_min [m]");
     s.range_max_m = in.number(tok[4], "range_max [m]");
-    if (s.angle_increment_rad == 0.0) in.fail("angle_increment must not be 0");
+    if (s.angle_increment_rad == 0.0) in.reject("bad_header", "angle_increment must not be 0");
     if (!(s.range_min_m >= 0.0 && s.range_min_m < s.range_max_m))
-      in.fail("expected 0 <= range_min < range_max, got {} and {}", s.range_min_m, s.range_max_m);
+      in.reject("bad_header", "expected 0 <= range_min < range_max, got {} and {}", s.range_min_m,
+                s.range_max_m);
     s.ranges_m.reserve(tok.size() - 5);
     for (std::size_t i = 5; i < tok.size(); ++i) {
       // nan/inf or a value outside [range_min, range_max] is "no return".
       const double r = in.numberOrNonFinite(tok[i], "a range [m]");
       s.ranges_m.push_back(std::isnan(r) ? std::numeric_limits<double>::quiet_NaN() : r);
     }
-    scans.push_back(std::move(s));
-  }
+    columns = tok.size();
+    return s;
+  });
   if (scans.empty())
     fail("{}: no LiDAR scans (remove the file when there is no LiDAR)", csv.string());
   return scans;
@@ -161,12 +160,12 @@ std::optional<Trajectory> readOvoGroundtruth(const fs::path& root, const fs::pat
   return readTum(txt.front());
 }
 
-Dataset loadOvo(const fs::path& root, const fs::path& base) {
+Dataset loadOvo(const fs::path& root, const fs::path& base, const RecordPolicy& policy) {
   Dataset ds;
   ds.root = root;
   ds.kind = "ovo";
   const fs::path cam_dir = base / "cam0";
-  ds.images = readImageList(cam_dir);
+  ds.images = readImageList(cam_dir, policy, ds.skipped);
 
   const fs::path ocam = cam_dir / "calib_results.txt";
   const fs::path sensor = cam_dir / "sensor.yaml";
@@ -193,8 +192,10 @@ Dataset loadOvo(const fs::path& root, const fs::path& base) {
   }
   ds.rig.T_B_C = cameraExtrinsics(ds.rig, T_B_C_sensor, rig_file);
 
-  if (fs::exists(base / "imu0" / "data.csv")) ds.imu = readImu(base / "imu0" / "data.csv");
-  if (fs::exists(base / "lidar0" / "data.csv")) ds.scans = readLidar(base / "lidar0" / "data.csv");
+  if (fs::exists(base / "imu0" / "data.csv"))
+    ds.imu = readImu(base / "imu0" / "data.csv", policy, ds.skipped);
+  if (fs::exists(base / "lidar0" / "data.csv"))
+    ds.scans = readLidar(base / "lidar0" / "data.csv", policy, ds.skipped);
   if (auto gt = readOvoGroundtruth(root, base)) ds.groundtruth = std::move(*gt);
   if (fs::exists(root / "sim" / "truth_bias.csv"))
     ds.true_gyro_bias = readGyroBiasCsv(root / "sim" / "truth_bias.csv");
@@ -399,8 +400,8 @@ Dataset loadDataset(const fs::path& root, const LoadOptions& options) {
         "{}: --rig and --topics apply to bags (.bag, .db3, .mcap, a rosbag2 folder); a dataset "
         "folder has its own rig.yaml",
         root.string());
-  if (fs::is_directory(root / "mav0" / "cam0")) return loadOvo(root, root / "mav0");
-  if (fs::is_directory(root / "cam0")) return loadOvo(root, root);
+  if (fs::is_directory(root / "mav0" / "cam0")) return loadOvo(root, root / "mav0", options.records());
+  if (fs::is_directory(root / "cam0")) return loadOvo(root, root, options.records());
   if (fs::is_directory(root / "image_0")) {
     if (!fs::exists(root / "calib.txt"))
       fail("{}: missing (a KITTI folder needs calib.txt beside image_0/)",
@@ -423,24 +424,15 @@ Trajectory readGroundtruthFor(const Dataset& ds, const fs::path& file) {
 
 cv::Mat loadImageGrey(const ImageEntry& entry) {
   if (entry.load) return entry.load();
-  if (!fs::is_regular_file(entry.path)) fail("{}: image file not found", entry.path.string());
-  cv::Mat image = cv::imread(entry.path.string(), cv::IMREAD_GRAYSCALE);
-  if (image.empty())
-    fail("{}: cannot decode the image (expected an 8-bit PNG/JPEG readable by OpenCV)",
-         entry.path.string());
-  return image;
+  return readImageGrey(entry.path);
 }
 
 cv::Mat loadDatasetImage(const Dataset& ds, std::size_t index) {
   const ImageEntry& entry = ds.images.at(index);
-  cv::Mat image = loadImageGrey(entry);
-  if (ds.camera) {
-    const int w = camera::width(*ds.camera), h = camera::height(*ds.camera);
-    if (image.cols != w || image.rows != h)
-      fail("{}: the image is {}x{}, but the camera calibration ({}) is for {}x{} images",
-           entry.path.string(), image.cols, image.rows, ds.camera_file.string(), w, h);
-  }
-  return image;
+  if (!ds.camera) return readImageGrey(entry.path);
+  return readImageGrey(entry.path,
+                       {cv::Size(camera::width(*ds.camera), camera::height(*ds.camera)),
+                        fmt::format("the camera calibration ({})", ds.camera_file.string())});
 }
 
 std::vector<std::string> clockOverlapNotes(const Dataset& data, const Trajectory& groundtruth) {

@@ -14,6 +14,7 @@
 
 #include "camera/camera.hpp"
 #include "common/types.hpp"
+#include "io/skipped_records.hpp"
 
 namespace ovo::io {
 
@@ -56,13 +57,17 @@ struct Dataset {
   Trajectory groundtruth;                                  // T_W_B; empty when there is none
   std::vector<std::pair<Timestamp, Vec3>> true_gyro_bias;  // [rad/s], simulator only
   std::vector<std::string> notes;  // what the reader assumed (a bag's record times, ...)
+  SkippedRecords skipped;  // bad records the readers skipped (RecordPolicy), by sensor and reason
 };
 
-/// How a bag is read (both empty for folders): the rig file (--rig) and the topics (--topics
-/// camera=...,imu=...,lidar=...), see io/bag_dataset.hpp.
+/// How a dataset is read: for bags the rig file (--rig) and the topics (--topics
+/// camera=...,imu=...,lidar=...), see io/bag_dataset.hpp (both empty for folders); for folders
+/// whether a bad record in a sensor stream is an error (strict) or skipped and counted.
 struct LoadOptions {
   std::filesystem::path rig;
   std::string topics;
+  bool strict = false;
+  RecordPolicy records() const { return {.strict = strict}; }
 };
 
 /// Detects the layout of `root` and reads it:
@@ -75,8 +80,11 @@ struct LoadOptions {
 ///   1.65 m above the road, pitch 0) and the ground truth turned into T_W_B with W z-up.
 /// - a bag: a .bag, .db3 or .mcap file or a rosbag2 folder (io/bag_dataset.hpp), or a folder
 ///   holding no cam0/data.csv but exactly one bag (as `ovo simulate --format` writes).
-/// Throws ovo::Error naming the file and line on anything missing or malformed; options given for
-/// a folder that is not a bag are an error.
+/// Throws ovo::Error naming the file and line on anything missing or malformed, except a bad
+/// record in a folder's sensor stream (an image-list, gyro or LiDAR row: unparsable, non-finite,
+/// a stamp out of order, an image file missing), which is skipped and counted in Dataset::skipped
+/// unless options.strict (io/skipped_records.hpp); options for bags given for a folder are an
+/// error.
 Dataset loadDataset(const std::filesystem::path& root, const LoadOptions& options = {});
 
 /// A ground-truth file for `ds` (`ovo run --gt`): TUM, KITTI or EuRoC csv, as readTrajectory()
@@ -87,11 +95,13 @@ Trajectory readGroundtruthFor(const Dataset& ds, const std::filesystem::path& fi
 /// T_B_C of the KITTI rig: body x forward, y left, z up at the camera centre, camera pitch 0.
 SE3 kittiBodyFromCamera();
 
-/// The image as 8-bit grey (colour is converted). Throws ovo::Error naming the file when it is
-/// missing or does not decode.
+/// The image as 8-bit grey (colour is converted), through io/image_decode (no codec library
+/// prints). Throws a RecordError naming the file when it is missing (reason "missing_file") or
+/// does not decode (truncated, corrupt: "decode").
 cv::Mat loadImageGrey(const ImageEntry& entry);
 /// Image `index` of the dataset, as loadImageGrey, checked against the calibration's image size
-/// (throws ovo::Error naming the image and the calibration file when they differ).
+/// (a RecordError "size" naming the image and the calibration file when they differ; checked
+/// before decoding when the file's header tells).
 cv::Mat loadDatasetImage(const Dataset& ds, std::size_t index);
 
 /// The camera's pose in the body frame: the rig file's T_B_C when it gives one, else the camera

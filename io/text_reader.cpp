@@ -59,14 +59,17 @@ bool parseDouble(std::string_view token, double& value) {
 
 double TextReader::number(std::string_view token, std::string_view what) const {
   double v = 0.0;
-  if (!parseDouble(token, v)) fail("expected a number for {}, got '{}'", what, token);
-  if (!std::isfinite(v)) fail("expected a finite number for {}, got '{}'", what, token);
+  if (!parseDouble(token, v))
+    reject("unparsable", "expected a number for {}, got '{}'", what, token);
+  if (!std::isfinite(v))
+    reject("non_finite", "expected a finite number for {}, got '{}'", what, token);
   return v;
 }
 
 double TextReader::numberOrNonFinite(std::string_view token, std::string_view what) const {
   double v = 0.0;
-  if (!parseDouble(token, v)) fail("expected a number (or nan) for {}, got '{}'", what, token);
+  if (!parseDouble(token, v))
+    reject("unparsable", "expected a number (or nan) for {}, got '{}'", what, token);
   return v;
 }
 
@@ -76,11 +79,12 @@ std::int64_t TextReader::integer(std::string_view token, std::string_view what) 
   if (!t.empty() && t.front() == '+') t.remove_prefix(1);
   const auto [ptr, ec] = std::from_chars(t.data(), t.data() + t.size(), v);
   if (t.empty() || ec != std::errc() || ptr != t.data() + t.size())
-    fail("expected an integer for {}, got '{}'", what, token);
+    reject("unparsable", "expected an integer for {}, got '{}'", what, token);
   return v;
 }
 
 Timestamp TextReader::secondsToNs(std::string_view token, std::string_view what) const {
+  constexpr std::int64_t kMaxSeconds = 9'000'000'000;  // int64 ns reach 9.2e9 s
   std::string_view t = token;
   bool negative = false;
   if (!t.empty() && (t.front() == '+' || t.front() == '-')) {
@@ -101,6 +105,10 @@ Timestamp TextReader::secondsToNs(std::string_view token, std::string_view what)
       whole.size() <= 10) {
     std::int64_t s = 0, ns = 0;
     for (char c : whole) s = s * 10 + (c - '0');
+    // As in the scientific branch: 9e9 s (year 2255) and beyond would overflow int64 ns.
+    if (s > kMaxSeconds)
+      reject("unparsable", "expected a time in seconds of at most {} for {}, got '{}'", kMaxSeconds,
+             what, token);
     std::int64_t scale = 100000000;
     for (std::size_t i = 0; i < frac.size() && i < 9; ++i, scale /= 10)
       ns += (frac[i] - '0') * scale;
@@ -113,9 +121,9 @@ Timestamp TextReader::secondsToNs(std::string_view token, std::string_view what)
   char* end = nullptr;
   const long double v = std::strtold(copy.c_str(), &end);
   if (copy.empty() || end != copy.c_str() + copy.size())
-    fail("expected a time in seconds for {}, got '{}'", what, token);
-  if (!std::isfinite(v) || std::fabs(v) > 9.0e9L)
-    fail("expected a finite time in seconds for {}, got '{}'", what, token);
+    reject("unparsable", "expected a time in seconds for {}, got '{}'", what, token);
+  if (!std::isfinite(v) || std::fabs(v) > static_cast<long double>(kMaxSeconds))
+    reject("unparsable", "expected a finite time in seconds for {}, got '{}'", what, token);
   return static_cast<Timestamp>(std::llround(v * 1.0e9L));
 }
 
@@ -150,7 +158,8 @@ std::string formatSeconds(Timestamp t_ns) {
 
 void checkIncreasing(const TextReader& in, Timestamp previous, Timestamp t_ns, bool first) {
   if (!first && t_ns <= previous)
-    in.fail("time stamps must increase: {} ns after {} ns", t_ns, previous);
+    in.reject(t_ns == previous ? "stamp_duplicate" : "stamp_backwards",
+              "time stamps must increase: {} ns after {} ns", t_ns, previous);
 }
 
 }  // namespace ovo::io

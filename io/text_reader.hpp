@@ -11,6 +11,7 @@
 
 #include "common/error.hpp"
 #include "common/types.hpp"
+#include "io/skipped_records.hpp"
 
 namespace ovo::io {
 
@@ -33,6 +34,17 @@ class TextReader {
     failAt(file_name_, line_number_, format, std::forward<Args>(args)...);
   }
 
+  /// Throws a RecordError "file:line: message" for the current line: a bad record, which a stream
+  /// reader may skip (io/skipped_records.hpp); `reason` is its metrics.json key.
+  template <typename... Args>
+  [[noreturn]] void reject(const char* reason, fmt::format_string<Args...> format,
+                           Args&&... args) const {
+    throw RecordError(reason, fmt::format("{}:{}: {}", file_name_, line_number_,
+                                          fmt::format(format, std::forward<Args>(args)...)));
+  }
+
+  // The number readers reject a bad token as a bad record (reason "unparsable", or "non_finite"
+  // for nan/inf where a finite number is expected).
   /// A finite number; `what` names the column in the message.
   double number(std::string_view token, std::string_view what) const;
   /// A number that may be NaN or infinite (e.g. a LiDAR range with no return).
@@ -49,8 +61,8 @@ class TextReader {
   long line_number_ = 0;
 };
 
-/// Throws (naming in's file and line) unless t_ns comes after previous; the first stamp of a file
-/// (first) may be anything.
+/// Rejects the record (naming in's file and line; reason "stamp_duplicate" or "stamp_backwards")
+/// unless t_ns comes after previous; the first stamp of a file (first) may be anything.
 void checkIncreasing(const TextReader& in, Timestamp previous, Timestamp t_ns, bool first);
 
 /// Writes `content` to a temporary file beside `file` and renames it over `file`, so that a

@@ -22,7 +22,7 @@ PACKAGES=(build-essential cmake ninja-build ccache pkg-config
   libeigen3-dev libceres-dev libsuitesparse-dev libopencv-dev
   pocl-opencl-icd ocl-icd-opencl-dev opencl-headers
   libgtest-dev libgmock-dev libbenchmark-dev libopengv-dev
-  libcli11-dev nlohmann-json3-dev libspdlog-dev libfmt-dev libyaml-cpp-dev libtbb-dev
+  libcli11-dev nlohmann-json3-dev libspdlog-dev libfmt-dev libyaml-cpp-dev libtbb-dev zlib1g-dev
   librosbag-storage-dev libsensor-msgs-dev libsqlite3-dev libzstd-dev liblz4-dev libbz2-dev
   xvfb xauth)
 # Only the test command needs a browser (report.html is rendered in headless Chromium; the test

@@ -174,12 +174,13 @@ TEST_P(OfflinePipeline, GivesThePosesOfTheStagesInSequence) {
   const io::Dataset data = io::loadDataset(simulatedRow());
   ASSERT_GT(data.images.size(), 90u);
   auto in_sequence = make(GetParam(), data);
-  const OfflineRunResult a = runOffline(data, *in_sequence, {}, {}, {.pipelined = false});
+  const OfflineRunResult a =
+      runOffline(data, *in_sequence, {}, {}, {.pipelined = false, .records = {}});
   auto pipelined = make(GetParam(), data);
   int seen = 0;
   const OfflineRunResult b = runOffline(
       data, *pipelined, {}, [&](const estimator::FrameEstimate&, const cv::Mat&) { ++seen; },
-      {.pipelined = true});
+      {.pipelined = true, .records = {}});
   EXPECT_EQ(seen, static_cast<int>(data.images.size()));
   expectSamePoses(returned(b.frames), returned(a.frames));
   expectSamePoses(pipelined->trajectory(), in_sequence->trajectory());
@@ -249,7 +250,7 @@ TEST(OfflinePipeline, TheFrontendRunsAheadThroughASlowUpdateByAtMostTheLead) {
   EXPECT_EQ(est.timeouts(), 0) << "the runner held the frontend back from the lead";
 }
 
-TEST(OfflinePipelineErrors, ACorruptImageStopsBothStagesAndNamesTheFile) {
+TEST(OfflinePipelineErrors, StrictACorruptImageStopsBothStagesAndNamesTheFile) {
   if (!fs::exists(test::ovoBinaryPath())) GTEST_SKIP() << "ovo not built";
   io::Dataset data = io::loadDataset(simulatedRow());
   // Frame 40 replaced by a file that is not a PNG: the frontend thread fails there, mid-run.
@@ -260,12 +261,31 @@ TEST(OfflinePipelineErrors, ACorruptImageStopsBothStagesAndNamesTheFile) {
   int frames_done = 0;  // the images before it are decoded ahead, and all go through first
   try {
     runOffline(data, *est, {},
-               [&](const estimator::FrameEstimate&, const cv::Mat&) { ++frames_done; });
+               [&](const estimator::FrameEstimate&, const cv::Mat&) { ++frames_done; },
+               {.records = {.strict = true}});
     ADD_FAILURE() << "no error for a corrupt image";
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find("corrupt.png"), std::string::npos) << e.what();
   }
   EXPECT_EQ(frames_done, 40);
+}
+
+TEST(OfflinePipelineErrors, ByDefaultACorruptImageIsSkippedTheSameWayInBothModes) {
+  if (!fs::exists(test::ovoBinaryPath())) GTEST_SKIP() << "ovo not built";
+  io::Dataset data = firstImages(io::loadDataset(simulatedRow()), 60);
+  const fs::path bad = test::tempDir() / "corrupt.png";
+  std::ofstream(bad) << "not an image";
+  data.images[40].path = bad;
+  auto serial = make("window", data);
+  const OfflineRunResult a = runOffline(data, *serial, {}, {}, {.pipelined = false, .records = {}});
+  auto pipelined = make("window", data);
+  const OfflineRunResult b =
+      runOffline(data, *pipelined, {}, {}, {.pipelined = true, .records = {}});
+  EXPECT_EQ(a.frames.size(), 59u);
+  EXPECT_EQ(a.skipped.count("camera", "decode"), 1);
+  EXPECT_EQ(b.skipped.toJson(), a.skipped.toJson());
+  EXPECT_CONTAINS(b.skipped.kinds().at(0).first, "corrupt.png");
+  expectSamePoses(pipelined->trajectory(), serial->trajectory());
 }
 
 }  // namespace

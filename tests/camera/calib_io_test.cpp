@@ -142,6 +142,9 @@ TEST(CalibIo, BadYamlNamesFileAndKey) {
   expectYamlError(head + "intrinsics: [458, 457, 367, 248]\nintrinsics: [1, 1, 376, 240]\n",
                   ":5: key 'intrinsics' given twice (first on line 4)");
   EXPECT_THROW(loadCamera(test::tempDir() / "absent.yaml"), Error);
+  // A Kalibr cam0 that is a value, not a mapping: yaml-cpp's BadSubscript escaped (fuzzing).
+  expectYamlError("cam0:\n  T_imu_cam:90\n", "'cam0' must be a mapping");
+  expectYamlError("cam0: [1, 2]\n", "'cam0' must be a mapping");
 }
 
 }  // namespace

@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <fstream>
+#include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
 
 #include "common/error.hpp"
@@ -242,12 +243,15 @@ TEST(Dataset, OcamCalibrationInCam0IsUsed) {
   EXPECT_EQ(camera::height(*ds.camera), 480);
 }
 
-// Each case damages one file of the mini dataset and names what the error must contain.
+// Each case damages one file of the mini dataset and names what the error must contain (with
+// RecordPolicy::strict). By default a bad record in the middle of a stream is skipped instead
+// (skipped_reason: how it is counted); a stream left with no record is an error either way.
 struct Damage {
   const char* name;
   const char* file;     // relative to the dataset root; empty: remove the calibration
   const char* content;  // new content
   const char* expected;
+  const char* skipped_reason = nullptr;  // by default: skipped, counted under this reason
 };
 
 TEST(Dataset, BadInputGivesAnErrorNamingFileAndLine) {
@@ -256,7 +260,7 @@ TEST(Dataset, BadInputGivesAnErrorNamingFileAndLine) {
        "cam0/data.csv:2: expected 2 columns"},
       {"image_list_order", "cam0/data.csv",
        "1050000000,1050000000.png\n1000000000,1000000000.png\n",
-       "cam0/data.csv:2: time stamps must increase"},
+       "cam0/data.csv:2: time stamps must increase", "stamp_backwards"},
       {"image_missing", "cam0/data.csv", "1000000000,nope.png\n", "cam0/data.csv:1: image file"},
       {"image_list_empty", "cam0/data.csv", "#timestamp [ns],filename\n", "no images listed"},
       {"imu_columns", "imu0/data.csv", "#h\n1000000000,0.1,0.2,0.3,0,0\n",
@@ -264,13 +268,13 @@ TEST(Dataset, BadInputGivesAnErrorNamingFileAndLine) {
       {"imu_nan", "imu0/data.csv", "1000000000,0.1,nan,0.3,0,0,9.8\n",
        "imu0/data.csv:1: expected a finite number for w_y"},
       {"imu_order", "imu0/data.csv", "2,0,0,0,0,0,0\n1,0,0,0,0,0,0\n",
-       "imu0/data.csv:2: time stamps must increase"},
+       "imu0/data.csv:2: time stamps must increase", "stamp_backwards"},
       // Finite but no gyro's: such a rate overflowed the rotation integration (a Ceres abort).
       {"imu_huge_rate", "imu0/data.csv", "1,0,0,0,0,0,9.8\n2,0,0,-1e200,0,0,9.8\n",
-       "imu0/data.csv:2: w_z = -1e+200 rad/s is no gyro reading"},
+       "imu0/data.csv:2: w_z = -1e+200 rad/s is no gyro reading", "out_of_range"},
       {"lidar_columns", "lidar0/data.csv",
        "1000000000,-1,0.5,0.1,30,1,2\n1100000000,-1,0.5,0.1,30,1\n",
-       "lidar0/data.csv:2: expected 7 columns like the first scan"},
+       "lidar0/data.csv:2: expected 7 columns like the first scan", "columns"},
       {"lidar_header_nan", "lidar0/data.csv", "1000000000,nan,0.5,0.1,30,1,2\n",
        "lidar0/data.csv:1: expected a finite number for angle_min"},
       {"lidar_ranges", "lidar0/data.csv", "1000000000,-1,0.5,30,0.1,1,2\n",
@@ -305,9 +309,78 @@ TEST(Dataset, BadInputGivesAnErrorNamingFileAndLine) {
       fs::remove(root / "cam0" / "sensor.yaml");
     else
       test::writeTextFile(root / c.file, c.content);
-    const std::string err = errorOf([&] { loadDataset(root); });
+    const std::string err = errorOf([&] { loadDataset(root, {.strict = true}); });
     EXPECT_CONTAINS(err, c.expected) << " (case " << c.name << ")";
+    if (c.skipped_reason) {
+      const Dataset ds = loadDataset(root);
+      EXPECT_EQ(ds.skipped.total(), 1) << c.name;
+      ASSERT_EQ(ds.skipped.kinds().size(), 1u) << c.name;
+      EXPECT_EQ(ds.skipped.kinds()[0].reason, c.skipped_reason) << c.name;
+      EXPECT_CONTAINS(ds.skipped.kinds()[0].first, c.expected);
+    } else {
+      EXPECT_CONTAINS(errorOf([&] { loadDataset(root); }), c.expected)
+          << " (case " << c.name << ")";
+    }
   }
+}
+
+// A day's log has a few bad records: each is skipped and counted by sensor and reason, and the
+// records around it load as they are.
+TEST(Dataset, BadRecordsInTheMiddleOfAStreamAreSkippedAndCounted) {
+  const fs::path root = writeMiniDataset(test::tempDir() / "ds");
+  test::writeTextFile(root / "imu0" / "data.csv",
+                      "#t,wx,wy,wz,ax,ay,az\n"
+                      "1000000000,0.1,0.2,0.3,0,0,9.81\n"
+                      "1005000000,0.1,nan,0.3,0,0,9.81\n"  // non_finite
+                      "1010000000,0.1,0.2,0.3,0,0,9.81\n"
+                      "1015000000,0.1,0.2,garbage,0,0,9.81\n"  // unparsable
+                      "1020000000,0.1,0.2,inf,0,0,9.81\n"      // non_finite
+                      "1020000000,0.1,0.2,0.3,0,0\n"           // columns
+                      "1025000000,0.1,0.2,0.3,0,0,9.81\n"
+                      "1025000000,0.4,0.2,0.3,0,0,9.81\n"  // stamp_duplicate
+                      "1005000000,0.4,0.2,0.3,0,0,9.81\n"  // stamp_backwards
+                      "9000000000,0.4,0.2,0.3,0,0,9.81\n"  // stamp_ahead (seen at the next)
+                      "1030000000,0.1,0.2,0.3,0,0,9.81\n");
+  test::writeTextFile(root / "lidar0" / "data.csv",
+                      "1000000000,-1.5,0.5,0.1,30,1.0,2.0,3.0\n"
+                      "1050000000,-1.5,0.5,0.1,30,1.0,2.0\n"         // columns
+                      "1100000000,-1.5,0.5,30,0.1,1.0,2.0,3.0\n"     // bad_header
+                      "1150000000,-1.5,0.5,0.1,30,-1.0,nan,inf\n");  // no returns: kept
+  fs::remove(root / "cam0" / "data" / "1050000000.png");
+  const Dataset ds = loadDataset(root);
+  ASSERT_EQ(ds.imu.size(), 4u);
+  EXPECT_EQ(ds.imu[1].t_ns, 1010000000);
+  EXPECT_EQ(ds.imu[2].t_ns, 1025000000);
+  EXPECT_DOUBLE_EQ(ds.imu[2].gyro_radps.x(), 0.1);  // the first of the duplicates
+  EXPECT_EQ(ds.imu[3].t_ns, 1030000000);
+  ASSERT_EQ(ds.scans.size(), 2u);
+  EXPECT_FALSE(ds.scans[1].valid(0));
+  ASSERT_EQ(ds.images.size(), 2u);
+  EXPECT_EQ(ds.images[1].t_ns, 1100000000);
+  const nlohmann::json expected = {{"gyro",
+                                    {{"non_finite", 2},
+                                     {"unparsable", 1},
+                                     {"columns", 1},
+                                     {"stamp_duplicate", 1},
+                                     {"stamp_backwards", 1},
+                                     {"stamp_ahead", 1}}},
+                                   {"lidar", {{"columns", 1}, {"bad_header", 1}}},
+                                   {"camera", {{"missing_file", 1}}}};
+  EXPECT_EQ(ds.skipped.toJson(), expected) << ds.skipped.toJson().dump();
+  EXPECT_EQ(ds.skipped.total(), 10);
+  // The first of each kind names the file and line.
+  EXPECT_EQ(ds.skipped.kinds()[0].sensor, "camera");
+  EXPECT_CONTAINS(ds.skipped.kinds()[0].first, "cam0/data.csv:3: image file");
+  for (const auto& k : ds.skipped.kinds())
+    if (k.reason == "stamp_ahead")
+      EXPECT_CONTAINS(k.first, "imu0/data.csv:11: time stamp 9000000000 ns is ahead");
+  // --strict: the first bad record is the error.
+  EXPECT_CONTAINS(errorOf([&] { loadDataset(root, {.strict = true}); }),
+                  "cam0/data.csv:3: image file");
+  // A stream with no usable record left is a bad file.
+  test::writeTextFile(root / "imu0" / "data.csv", "1,nan,0,0,0,0,0\n2,x,0,0,0,0,0\n");
+  EXPECT_CONTAINS(errorOf([&] { loadDataset(root); }),
+                  "imu0/data.csv: no usable record (every one is bad; the first: ");
 }
 
 TEST(Dataset, ImageThatDoesNotDecodeNamesTheFile) {

@@ -96,6 +96,19 @@ TEST(TrajectoryIo, ExactTimeParsing) {
   EXPECT_EQ(formatSeconds(12'000'000'001LL), "12.000000001");
 }
 
+// A stamp of 9.3e9 s overflowed int64 nanoseconds (signed overflow, undefined; found by the
+// trajectory_tum fuzz target under UBSan): now an error naming the line, as 9.3e+09 already was.
+TEST(TrajectoryIo, TimesBeyondInt64NanosecondsAreAnError) {
+  const fs::path file = test::tempDir() / "t.txt";
+  test::writeTextFile(file, "9000000000.5 0 0 0 0 0 0 1\n9305031098.665 0 0 0 0 0 0 1\n");
+  EXPECT_CONTAINS(test::errorOf([&] { readTum(file); }),
+                  "t.txt:2: expected a time in seconds of at most 9000000000");
+  test::writeTextFile(file, "9000000000.5 0 0 0 0 0 0 1\n");
+  EXPECT_EQ(readTum(file).front().t_ns, 9'000'000'000'500'000'000LL);
+  test::writeTextFile(file, "9.3e9 0 0 0 0 0 0 1\n");
+  EXPECT_CONTAINS(test::errorOf([&] { readTum(file); }), "t.txt:1: expected a finite time");
+}
+
 TEST(TrajectoryIo, RealFilesOfTheSharedData) {
   OVO_REQUIRE_DATA("traj-eval-evo/V102_groundtruth.csv");
   const auto euroc = readTrajectory(test::sharedData("traj-eval-evo/V102_groundtruth.csv"));

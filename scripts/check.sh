@@ -1,0 +1,218 @@
+#!/usr/bin/env bash
+# ovo's checks beyond the normal test suite, one subcommand each (each builds into its own folder
+# beside build/, so the Release build is never touched):
+#
+#   scripts/check.sh sanitize [asan|tsan|all] [--subset]
+#       asan: build-asan (gcc, -O1 -g, assertions on, AddressSanitizer + UndefinedBehaviorSanitizer,
+#             UB not recoverable) and the whole ctest suite under it; --subset runs the fixed CI
+#             subset instead (every reader, the window estimator, the runners: see SUBSET below).
+#       tsan: build-tsan (ThreadSanitizer) and the threaded tests: the online pipeline, the replay,
+#             the two-stage offline runner, ovo run --realtime and ovo_live_camera.
+#       all (the default): both. Exit status non-zero when a build or a test fails.
+#   scripts/check.sh fuzz [seconds] [target...]
+#       build-fuzz (clang, libFuzzer + ASan + UBSan), then each fuzz target (all by default) for
+#       `seconds` (default 60) on a corpus seeded from tests/fuzz/seeds and ../shared/data;
+#       OVO_FUZZ_PARALLEL=2 runs two at a time. Prints executions, coverage and time per target;
+#       a crash, hang, leak or OOM leaves its input in build-fuzz/artifacts/<target>/ (add it to
+#       tests/fuzz/regressions/<target>/ once fixed).
+#   scripts/check.sh soak [driving-hours] [ovo_soak options...]
+#       the Release build's ovo_soak: the simulated sequence fed again and again through the
+#       online pipeline (bench/soak.cpp); writes build/soak/soak.csv and soak.svg.
+#
+# Environment: OVO_JOBS (parallel build jobs, default nproc), OVO_SHARED_DATA (../shared/data).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+ROOT=$(pwd)
+JOBS=${OVO_JOBS:-$(nproc)}
+SHARED=${OVO_SHARED_DATA:-$ROOT/../shared/data}
+SUPP=$ROOT/scripts/sanitizers
+export POCL_CACHE_DIR=${POCL_CACHE_DIR:-${XDG_CACHE_HOME:-$HOME/.cache}/ovo-pocl}
+mkdir -p "$POCL_CACHE_DIR"
+
+usage() { sed -n '2,/^set -euo/p' "$0" | sed '$d' | sed 's/^# \{0,1\}//'; }
+
+# configure <build dir> <cmake args...>: configures once (a later call keeps the folder's cache).
+configure() {
+  local dir=$1
+  shift
+  if [ ! -f "$dir/build.ninja" ]; then cmake -S "$ROOT" -B "$dir" -G Ninja "$@"; fi
+}
+
+# The sanitizer builds: optimised enough to run the suite, debug info for the reports, assertions
+# (Eigen's and libstdc++'s bounds checks) on.
+SAN_FLAGS=(-DCMAKE_BUILD_TYPE=RelWithDebInfo "-DCMAKE_CXX_FLAGS_RELWITHDEBINFO=-O1 -g -D_GLIBCXX_ASSERTIONS"
+  "-DCMAKE_C_FLAGS_RELWITHDEBINFO=-O1 -g" -DOVO_BUILD_BENCH=OFF)
+
+# ASan + UBSan over the ctest suite. Suppressions only for reports inside Debian's (not
+# instrumented) libraries: scripts/sanitizers/*.supp say which and why.
+export ASAN_OPTIONS="detect_leaks=1:halt_on_error=1:abort_on_error=0:strict_init_order=1:detect_stack_use_after_return=0:allocator_may_return_null=0"
+export UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1:suppressions=$SUPP/ubsan.supp"
+export LSAN_OPTIONS="suppressions=$SUPP/lsan.supp:print_suppressions=0"
+export TSAN_OPTIONS="halt_on_error=1:second_deadlock_stack=1:suppressions=$SUPP/tsan.supp"
+
+# The fixed subset CI runs under ASan + UBSan when the whole suite does not fit its time: every
+# reader of outside data (io, camera calibration files, configs, the fuzz regressions), the
+# window estimator's core, and the runners end to end.
+SUBSET='^(Dataset|TrajectoryIo|StagedFolder|Config|CalibIo|Ocam|Models|FuzzRegression|Targets/FuzzRegression|WindowCore|WindowProblem|WindowInit|WindowLidar|RunOutput|RunMetrics|Faults|Determinism|OnlinePipeline|OnlineRun)'
+
+# The threaded tests (tests/apps/online_*.cpp, the offline runner's two stages, faults under the
+# pipeline), run under TSan.
+TSAN_TESTS='^(OnlinePipeline|OnlineReplay|OnlineRun|LiveCamera|Estimators/OnlineTwoStage|OnlineTwoStage|Faults|Determinism)'
+
+sanitize_asan() {
+  local subset=$1 dir=$ROOT/build-asan start
+  start=$(date +%s)
+  configure "$dir" "${SAN_FLAGS[@]}" -DOVO_SANITIZE=address,undefined
+  cmake --build "$dir" -j "$JOBS"
+  echo "check.sh sanitize asan: build $(($(date +%s) - start)) s"
+  start=$(date +%s)
+  local filter=()
+  if [ "$subset" = 1 ]; then filter=(-R "$SUBSET"); fi
+  (cd "$dir" && ctest --output-on-failure -j "$JOBS" --timeout 1800 "${filter[@]}")
+  echo "check.sh sanitize asan: ctest $(($(date +%s) - start)) s"
+}
+
+sanitize_tsan() {
+  local dir=$ROOT/build-tsan start
+  start=$(date +%s)
+  configure "$dir" "${SAN_FLAGS[@]}" -DOVO_SANITIZE=thread
+  cmake --build "$dir" -j "$JOBS" --target ovo ovo_live_camera ovo_test_apps ovo_tsan_serial_libraries
+  echo "check.sh sanitize tsan: build $(($(date +%s) - start)) s"
+  start=$(date +%s)
+  # TBB and OpenCV loops serial (tests/sanitizers/tsan_serial_libraries.cpp): ovo's own threads
+  # are what TSan checks.
+  (cd "$dir" && LD_PRELOAD="$dir/tests/libovo_tsan_serial_libraries.so" \
+    ctest --output-on-failure -j "$JOBS" --timeout 1800 -R "$TSAN_TESTS")
+  echo "check.sh sanitize tsan: ctest $(($(date +%s) - start)) s"
+}
+
+cmd_sanitize() {
+  local which=all subset=0
+  for a in "$@"; do
+    case "$a" in
+      asan | tsan | all) which=$a ;;
+      --subset) subset=1 ;;
+      *) echo "check.sh sanitize: unknown argument '$a'" >&2; exit 2 ;;
+    esac
+  done
+  case "$which" in
+    asan) sanitize_asan "$subset" ;;
+    tsan) sanitize_tsan ;;
+    all) sanitize_asan "$subset" && sanitize_tsan ;;
+  esac
+}
+
+# seed_corpus <target> <corpus dir>: the repository's seeds plus small pieces of ../shared/data
+# (first lines of the long files; images as they are).
+seed_corpus() {
+  local t=$1 c=$2
+  mkdir -p "$c"
+  cp -n "$ROOT/tests/fuzz/seeds/$t/"* "$c/" 2>/dev/null || true
+  [ -d "$SHARED" ] || return 0
+  local head_lines=60
+  case "$t" in
+    ocam_calib)
+      for f in "$SHARED"/romovi-fisheye-calib/calib_results.txt "$SHARED"/ocam-scaramuzza-sample/calib_results_*.txt; do
+        [ -f "$f" ] && cp -n "$f" "$c/shared_$(basename "$f")"
+      done ;;
+    camera_yaml)
+      find "$SHARED/euroc-v101-micro" "$SHARED/fisheye-calib-refs" -name '*.yaml' -size -16k 2>/dev/null |
+        while read -r f; do cp -n "$f" "$c/shared_$(echo "$f" | md5sum | cut -c1-8).yaml"; done ;;
+    trajectory_tum)
+      for f in "$SHARED"/traj-eval-evo/freiburg1_xyz-groundtruth.txt "$SHARED"/traj-eval-evo/V102.txt; do
+        [ -f "$f" ] && head -n $head_lines "$f" >"$c/shared_$(basename "$f")"
+      done ;;
+    trajectory_kitti)
+      for f in "$SHARED"/traj-eval-evo/KITTI_00_gt.txt "$SHARED"/kitti07-first160/poses_07_time_prefixed.txt; do
+        [ -f "$f" ] && head -n $head_lines "$f" >"$c/shared_$(basename "$f")"
+      done ;;
+    trajectory_euroc)
+      f="$SHARED"/traj-eval-evo/V102_groundtruth.csv
+      [ -f "$f" ] && head -n $head_lines "$f" >"$c/shared_V102_groundtruth.csv" ;;
+    imu_csv)
+      f="$SHARED"/euroc-v101-micro/mav0/imu0/data.csv
+      [ -f "$f" ] && head -n $head_lines "$f" >"$c/shared_euroc_imu.csv" ;;
+    image_list_csv)
+      f="$SHARED"/euroc-v101-micro/mav0/cam0/data.csv
+      [ -f "$f" ] && head -n 10 "$f" >"$c/shared_euroc_cam0.csv" ;;
+    kitti_folder)
+      local k="$SHARED"/kitti07-first160
+      [ -d "$k" ] && { cat "$k/calib.txt"; echo ---; head -n 20 "$k/times.txt"; echo ---
+        head -n 20 "$k/poses_07_time_prefixed.txt"; } >"$c/shared_kitti07.txt" ;;
+    image)
+      find "$SHARED/fisheye-calib-refs" -type f \( -name '*.png' -o -name '*.jpg' \) -size -64k 2>/dev/null |
+        head -n 4 | while read -r f; do cp -n "$f" "$c/shared_$(basename "$f")"; done ;;
+  esac
+}
+
+# run_fuzz_target <target> <seconds>: one libFuzzer run; its log in build-fuzz/logs/<target>.log.
+run_fuzz_target() {
+  local t=$1 secs=$2 dir=$ROOT/build-fuzz
+  local corpus=$dir/corpus/$t art=$dir/artifacts/$t log=$dir/logs/$t.log
+  mkdir -p "$art" "$dir/logs"
+  seed_corpus "$t" "$corpus"
+  local start end status=0
+  start=$(date +%s)
+  # Images: OpenCV's own limit for formats ovo does not check first (1 Gpx by default).
+  OPENCV_IO_MAX_IMAGE_PIXELS=16777216 ASAN_OPTIONS="$ASAN_OPTIONS" \
+    nice -n 5 "$dir/fuzz/fuzz_$t" -max_total_time="$secs" -timeout=20 -rss_limit_mb=2048 \
+    -max_len=65536 -print_final_stats=1 -artifact_prefix="$art/" "$corpus" >"$log" 2>&1 || status=$?
+  end=$(date +%s)
+  local runs cov ft
+  runs=$(grep -o 'stat::number_of_executed_units: *[0-9]*' "$log" | grep -o '[0-9]*$' || true)
+  cov=$(grep -o 'cov: [0-9]*' "$log" | tail -n 1 | grep -o '[0-9]*' || true)
+  ft=$(grep -o 'ft: [0-9]*' "$log" | tail -n 1 | grep -o '[0-9]*' || true)
+  local found
+  found=$(find "$art" -type f | wc -l)
+  printf '%-18s %8s s %12s execs %6s cov %7s ft %3s findings  exit %s\n' "$t" "$((end - start))" \
+    "${runs:-?}" "${cov:-?}" "${ft:-?}" "$found" "$status"
+}
+
+cmd_fuzz() {
+  local secs=${1:-60}
+  shift || true
+  local dir=$ROOT/build-fuzz
+  CC=clang CXX=clang++ configure "$dir" -DCMAKE_BUILD_TYPE=RelWithDebInfo \
+    "-DCMAKE_CXX_FLAGS_RELWITHDEBINFO=-O1 -g" -DOVO_FUZZ=ON -DOVO_SANITIZE=address,undefined \
+    -DOVO_BUILD_TESTS=OFF -DOVO_BUILD_BENCH=OFF
+  local targets=("$@") build_targets=(ovo_fuzz_all)
+  if [ ${#targets[@]} -gt 0 ]; then build_targets=("${targets[@]/#/fuzz_}"); fi
+  cmake --build "$dir" -j "$JOBS" --target "${build_targets[@]}"
+  if [ ${#targets[@]} -eq 0 ]; then
+    mapfile -t targets < <(find "$dir/fuzz" -maxdepth 1 -name 'fuzz_*' -type f -printf '%f\n' | sed 's/^fuzz_//' | sort)
+  fi
+  printf '%-18s %10s %18s %10s %10s\n' target time executions coverage features
+  export -f run_fuzz_target seed_corpus
+  export ROOT SHARED ASAN_OPTIONS UBSAN_OPTIONS LSAN_OPTIONS
+  printf '%s\n' "${targets[@]}" | xargs -P "${OVO_FUZZ_PARALLEL:-1}" -I{} bash -c "run_fuzz_target {} $secs"
+  local total
+  total=$(find "$dir/artifacts" -type f 2>/dev/null | wc -l)
+  if [ "$total" -gt 0 ]; then
+    echo "check.sh fuzz: $total input(s) in $dir/artifacts/ (crash, leak, timeout or OOM)" >&2
+    return 1
+  fi
+}
+
+cmd_soak() {
+  local hours=${1:-1}
+  shift || true
+  local build=${OVO_BUILD_DIR:-$ROOT/build}
+  configure "$build" -DCMAKE_BUILD_TYPE=Release
+  cmake --build "$build" -j "$JOBS" --target ovo_soak
+  mkdir -p "$build/soak"
+  "$build/ovo_soak" --hours "$hours" --out "$build/soak" "$@"
+}
+
+cmd=${1:-help}
+shift || true
+case "$cmd" in
+  sanitize) cmd_sanitize "$@" ;;
+  fuzz) cmd_fuzz "$@" ;;
+  soak) cmd_soak "$@" ;;
+  help | -h | --help) usage ;;
+  *)
+    echo "check.sh: unknown command '$cmd'" >&2
+    usage >&2
+    exit 2
+    ;;
+esac
