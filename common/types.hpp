@@ -38,7 +38,8 @@ struct ImuSample {
 
 /// One planar LiDAR scan in the LiDAR frame L: beam i has angle angle_min + i * angle_increment
 /// in the x-y plane of L (x forward at angle 0); a range outside [range_min, range_max] (or NaN)
-/// is no return.
+/// is no return. Beam i is taken at t_ns + i * time_increment_s (ROS LaserScan's stamp and
+/// time_increment: the stamp is the first beam's time); time_increment_s = 0: instantaneous.
 struct LidarScan {
   Timestamp t_ns = 0;
   double angle_min_rad = 0.0;
@@ -46,6 +47,7 @@ struct LidarScan {
   double range_min_m = 0.0;
   double range_max_m = 0.0;
   std::vector<double> ranges_m;
+  double time_increment_s = 0;  // beam i at t_ns + i * time_increment_s (0 = instantaneous)
 
   bool valid(std::size_t i) const {
     const double r = ranges_m[i];

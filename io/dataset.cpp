@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <fstream>
 #include <limits>
 #include <opencv2/imgcodecs.hpp>
 #include <regex>
@@ -102,19 +103,37 @@ std::vector<ImuSample> readImu(const fs::path& csv) {
   return imu;
 }
 
-std::vector<LidarScan> readLidar(const fs::path& csv) {
-  TextReader in(csv,
-                "LiDAR scans: t[ns], angle_min, angle_increment [rad], range_min, range_max, "
-                "ranges [m]...");
+// True when the file's first line is a '#' header naming `column`.
+bool headerNames(const fs::path& file, std::string_view column) {
+  std::ifstream in(file);
+  std::string line;
+  if (!std::getline(in, line)) return false;
+  const std::size_t first = line.find('#');
+  return first != std::string::npos && line.find_first_not_of(" \t\xEF\xBB\xBF") == first &&
+         line.find(column) != std::string::npos;
+}
+
+// A scan longer than this is no scan (time_increment in another unit).
+constexpr double kMaxScanDurationS = 1.0;
+
+std::vector<LidarScan> readLidar(const fs::path& csv, bool* beam_times) {
+  // With per-beam times (a time_increment column after angle_increment, named in the header).
+  const bool timed = headerNames(csv, "time_increment");
+  if (beam_times) *beam_times = timed;
+  const std::size_t t = timed ? 1 : 0;  // columns before range_min beyond the plain layout's
+  TextReader in(csv, timed ? "LiDAR scans: t[ns], angle_min, angle_increment [rad], "
+                             "time_increment [s], range_min, range_max, ranges [m]..."
+                           : "LiDAR scans: t[ns], angle_min, angle_increment [rad], range_min, "
+                             "range_max, ranges [m]...");
   std::vector<LidarScan> scans;
   std::vector<std::string_view> tok;
   std::size_t columns = 0;
   while (in.next(tok)) {
-    if (tok.size() < 6)
+    if (tok.size() < 6 + t)
       in.fail(
-          "expected t[ns], angle_min, angle_increment, range_min, range_max and at least one "
+          "expected t[ns], angle_min, angle_increment, {}range_min, range_max and at least one "
           "range, got {} columns",
-          tok.size());
+          timed ? "time_increment, " : "", tok.size());
     if (columns == 0) columns = tok.size();
     if (tok.size() != columns)
       in.fail("expected {} columns like the first scan, got {}", columns, tok.size());
@@ -123,13 +142,17 @@ std::vector<LidarScan> readLidar(const fs::path& csv) {
     checkIncreasing(in, scans.empty() ? 0 : scans.back().t_ns, s.t_ns, scans.empty());
     s.angle_min_rad = in.number(tok[1], "angle_min [rad]");
     s.angle_increment_rad = in.number(tok[2], "angle_increment [rad]");
-    s.range_min_m = in.number(tok[3], "range_min [m]");
-    s.range_max_m = in.number(tok[4], "range_max [m]");
+    if (timed) s.time_increment_s = in.number(tok[3], "time_increment [s]");
+    s.range_min_m = in.number(tok[3 + t], "range_min [m]");
+    s.range_max_m = in.number(tok[4 + t], "range_max [m]");
     if (s.angle_increment_rad == 0.0) in.fail("angle_increment must not be 0");
+    if (std::abs(s.time_increment_s) * static_cast<double>(tok.size() - 6 - t) > kMaxScanDurationS)
+      in.fail("time_increment {} s makes the scan's {} beams last over {} s: expected seconds",
+              s.time_increment_s, tok.size() - 5 - t, kMaxScanDurationS);
     if (!(s.range_min_m >= 0.0 && s.range_min_m < s.range_max_m))
       in.fail("expected 0 <= range_min < range_max, got {} and {}", s.range_min_m, s.range_max_m);
-    s.ranges_m.reserve(tok.size() - 5);
-    for (std::size_t i = 5; i < tok.size(); ++i) {
+    s.ranges_m.reserve(tok.size() - 5 - t);
+    for (std::size_t i = 5 + t; i < tok.size(); ++i) {
       // nan/inf or a value outside [range_min, range_max] is "no return".
       const double r = in.numberOrNonFinite(tok[i], "a range [m]");
       s.ranges_m.push_back(std::isnan(r) ? std::numeric_limits<double>::quiet_NaN() : r);
@@ -193,10 +216,13 @@ Dataset loadOvo(const fs::path& root, const fs::path& base) {
   ds.rig.T_B_C = cameraExtrinsics(ds.rig, T_B_C_sensor, rig_file);
 
   if (fs::exists(base / "imu0" / "data.csv")) ds.imu = readImu(base / "imu0" / "data.csv");
-  if (fs::exists(base / "lidar0" / "data.csv")) ds.scans = readLidar(base / "lidar0" / "data.csv");
+  if (fs::exists(base / "lidar0" / "data.csv"))
+    ds.scans = readLidar(base / "lidar0" / "data.csv", nullptr);
   if (auto gt = readOvoGroundtruth(root, base)) ds.groundtruth = std::move(*gt);
   if (fs::exists(root / "sim" / "truth_bias.csv"))
     ds.true_gyro_bias = readGyroBiasCsv(root / "sim" / "truth_bias.csv");
+  if (fs::exists(root / "sim" / "truth_timing.yaml"))
+    ds.true_timing = readTrueTiming(root / "sim" / "truth_timing.yaml");
 
   if (!ds.rig.has_rig_file) {
     if (auto r = rateHz(ds.images, [](const ImageEntry& e) { return e.t_ns; }))
@@ -353,6 +379,10 @@ RigInfo readRigYaml(const fs::path& file) {
   rig.pixel_sigma = cfg.getInRange("camera.pixel_sigma", rig.pixel_sigma, kMin, kMax);
   if (cfg.has("camera.height_m"))
     rig.camera_height_m = cfg.getInRange("camera.height_m", 0.0, kMin, kMax);
+  rig.camera_time_offset_s =
+      cfg.getInRange("camera.time_offset_s", rig.camera_time_offset_s, -1.0, 1.0);
+  rig.camera_rolling_shutter_s =
+      cfg.getInRange("camera.rolling_shutter_s", rig.camera_rolling_shutter_s, 0.0, 1.0);
   rig.gyro_rate_hz = cfg.getInRange("gyro.rate_hz", rig.gyro_rate_hz, kMin, kMax);
   rig.gyro_noise_density = cfg.getInRange("gyro.noise_density", rig.gyro_noise_density, 0.0, kMax);
   rig.gyro_bias_random_walk =
@@ -362,6 +392,36 @@ RigInfo readRigYaml(const fs::path& file) {
       cfg.getInRange("lidar.range_sigma_m", rig.lidar_range_sigma_m, 0.0, kMax);
   cfg.checkAllUsed();
   return rig;
+}
+
+std::vector<LidarScan> readLidarCsv(const fs::path& csv, bool* beam_times) {
+  return readLidar(csv, beam_times);
+}
+
+TrueTiming readTrueTiming(const fs::path& file) {
+  const Config cfg = Config::load(file);
+  TrueTiming t;
+  t.camera_time_offset_s = cfg.getInRange("camera.time_offset_s", 0.0, -1.0, 1.0);
+  t.camera_rolling_shutter_s = cfg.getInRange("camera.rolling_shutter_s", 0.0, 0.0, 1.0);
+  t.camera_frames = cfg.getIntInRange("camera.frames", 0, 0, 1'000'000'000);
+  t.camera_frames_dropped = cfg.getIntInRange("camera.frames_dropped", 0, 0, 1'000'000'000);
+  t.lidar_time_increment_s = cfg.getInRange("lidar.time_increment_s", 0.0, -1.0, 1.0);
+  t.lidar_scan_time_s = cfg.getInRange("lidar.scan_time_s", 0.0, 0.0, 1000.0);
+  t.lidar_beams = cfg.getIntInRange("lidar.beams", 0, 0, 1'000'000'000);
+  t.imu_time_jitter_s = cfg.getInRange("imu.time_jitter_s", 0.0, 0.0, 1.0);
+  cfg.checkAllUsed();
+  return t;
+}
+
+std::vector<std::string> lidarTimingNotes(const Dataset& data) {
+  if (data.scans.empty() ||
+      std::any_of(data.scans.begin(), data.scans.end(),
+                  [](const LidarScan& s) { return s.time_increment_s != 0.0; }))
+    return {};
+  return {fmt::format(
+      "LiDAR: {} scans without per-beam times (no time_increment column): taken as "
+      "instantaneous",
+      data.scans.size())};
 }
 
 Dataset loadDataset(const fs::path& root) {

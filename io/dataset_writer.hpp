@@ -34,7 +34,8 @@ class DatasetWriter {
   void writeCamera(const camera::Camera& camera, const SE3& T_B_C, double rate_hz);
   /// imu0/data.csv (gyro rad/s, accelerometer m/s^2, in B).
   void writeImu(const std::vector<ImuSample>& samples);
-  /// lidar0/data.csv, one scan a row; no return written as nan.
+  /// lidar0/data.csv, one scan a row; no return written as nan. With a time_increment column when
+  /// a scan has per-beam times (io::readLidarCsv reads both layouts).
   void writeLidar(const std::vector<LidarScan>& scans);
   /// groundtruth.txt (TUM, T_W_B).
   void writeGroundTruth(const Trajectory& T_W_B);
