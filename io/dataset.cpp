@@ -418,10 +418,10 @@ std::vector<std::string> lidarTimingNotes(const Dataset& data) {
       std::any_of(data.scans.begin(), data.scans.end(),
                   [](const LidarScan& s) { return s.time_increment_s != 0.0; }))
     return {};
-  return {fmt::format(
-      "LiDAR: {} scans without per-beam times (no time_increment column): taken as "
-      "instantaneous",
-      data.scans.size())};
+  return {
+      fmt::format("LiDAR: {} scans without per-beam times (no time_increment column): taken as "
+                  "instantaneous",
+                  data.scans.size())};
 }
 
 Dataset loadDataset(const fs::path& root) {

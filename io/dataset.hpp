@@ -64,7 +64,7 @@ struct Dataset {
   std::vector<LidarScan> scans;
   Trajectory groundtruth;                                  // T_W_B; empty when there is none
   std::vector<std::pair<Timestamp, Vec3>> true_gyro_bias;  // [rad/s], simulator only
-  std::optional<TrueTiming> true_timing;  // sim/truth_timing.yaml, simulator only
+  std::optional<TrueTiming> true_timing;                   // sim/truth_timing.yaml, simulator only
 };
 
 /// Detects the layout of `root` and reads it:

@@ -47,7 +47,48 @@ HeightField::HeightField(double roughness_m, double wavelength_m, std::uint64_t 
     const double k = 2.0 * M_PI / lambda;
     waves_.push_back({k * std::cos(dir), k * std::sin(dir), a, rng.uniform(0.0, 2.0 * M_PI)});
     bound_ += a;
+    max_slope_ += a * k;
   }
+  // The window's fade: |d(w h)| <= |dw| |h| + w |dh|, |dw| <= 1.875 / fade (quintic smoothstep's
+  // steepest slope) along each axis.
+  max_slope_ += bound_ * 1.875 * std::sqrt(2.0) / fade_m_;
+}
+
+HeightMarch::HeightMarch(const HeightField& field, const Vec3& o, const Vec3& d, double t0,
+                         double dt)
+    : field_(field), o_(o), d_(d), t_(t0), dt_(dt) {
+  const std::size_t n = field.waves_.size();
+  c_.resize(n);
+  s_.resize(n);
+  cr_.resize(n);
+  sr_.resize(n);
+  const double x = o.x() + t0 * d.x(), y = o.y() + t0 * d.y();
+  for (std::size_t i = 0; i < n; ++i) {
+    const auto& w = field.waves_[i];
+    const double theta = w.kx * x + w.ky * y + w.phase;
+    c_[i] = w.amplitude * std::cos(theta);
+    s_[i] = w.amplitude * std::sin(theta);
+    const double step = (w.kx * d.x() + w.ky * d.y()) * dt;
+    cr_[i] = std::cos(step);
+    sr_[i] = std::sin(step);
+  }
+}
+
+double HeightMarch::height() const {
+  const double w = field_.window(o_.x() + t_ * d_.x(), o_.y() + t_ * d_.y(), nullptr);
+  if (w == 0.0) return 0.0;
+  double h = 0.0;
+  for (double c : c_) h += c;
+  return w * h;
+}
+
+void HeightMarch::step() {
+  for (std::size_t i = 0; i < c_.size(); ++i) {
+    const double c = c_[i] * cr_[i] - s_[i] * sr_[i];
+    s_[i] = s_[i] * cr_[i] + c_[i] * sr_[i];
+    c_[i] = c;
+  }
+  t_ += dt_;
 }
 
 Rect2 HeightField::support() const {

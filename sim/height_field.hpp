@@ -47,6 +47,8 @@ class HeightField {
 
   /// No height exceeds this in magnitude (m).
   double bound() const { return bound_; }
+  /// No slope (gradient norm) exceeds this, the window's fade included.
+  double maxSlope() const { return max_slope_; }
   /// The shortest wavelength of the field's waves (m).
   double minWavelength() const { return min_wavelength_; }
   const Rect2& plateau() const { return plateau_; }
@@ -66,7 +68,27 @@ class HeightField {
   Rect2 plateau_;
   double fade_m_ = 10.0;
   double bound_ = 0.0;
+  double max_slope_ = 0.0;
   double min_wavelength_ = 1.0;
+
+  friend class HeightMarch;
+};
+
+/// Heights of a field along a ray at t0, t0 + dt, t0 + 2 dt, ...: each wave's phase advances by
+/// a fixed angle a step, so a step costs a 2-D rotation per wave instead of a cosine.
+class HeightMarch {
+ public:
+  HeightMarch(const HeightField& field, const Vec3& o, const Vec3& d, double t0, double dt);
+  double t() const { return t_; }
+  /// Height of the field below the ray at t().
+  double height() const;
+  void step();
+
+ private:
+  const HeightField& field_;
+  Vec3 o_, d_;
+  double t_, dt_;
+  std::vector<double> c_, s_, cr_, sr_;  // a cos(theta), a sin(theta); cos, sin of the step
 };
 
 }  // namespace ovo::sim

@@ -52,10 +52,9 @@ LidarScan simulateScan(const VineyardWorld& world, const SE3& T_W_L, double t_s,
       noise_seed);
 }
 
-LidarScan simulateSweptScan(const VineyardWorld& world,
-                            const std::function<SE3(double)>& T_W_L_at, double t_s,
-                            Timestamp t_ns, double time_increment_s, const LidarOptions& o,
-                            std::uint64_t noise_seed) {
+LidarScan simulateSweptScan(const VineyardWorld& world, const std::function<SE3(double)>& T_W_L_at,
+                            double t_s, Timestamp t_ns, double time_increment_s,
+                            const LidarOptions& o, std::uint64_t noise_seed) {
   SE3 pose;
   const auto beam_time = [&](int i) { return t_s + i * time_increment_s; };
   LidarScan scan = castScan(

@@ -27,9 +27,8 @@ LidarScan simulateScan(const VineyardWorld& world, const SE3& T_W_L, double t_s,
 /// A swept scan: beam i is cast from T_W_L_at(t_s + i * time_increment_s) into the world at that
 /// time; the scan is stamped t_ns (the first beam) and carries time_increment_s. The noise draws
 /// are those of simulateScan for the same seed (time_increment_s = 0 gives simulateScan's scan).
-LidarScan simulateSweptScan(const VineyardWorld& world,
-                            const std::function<SE3(double)>& T_W_L_at, double t_s,
-                            Timestamp t_ns, double time_increment_s, const LidarOptions& options,
-                            std::uint64_t noise_seed);
+LidarScan simulateSweptScan(const VineyardWorld& world, const std::function<SE3(double)>& T_W_L_at,
+                            double t_s, Timestamp t_ns, double time_increment_s,
+                            const LidarOptions& options, std::uint64_t noise_seed);
 
 }  // namespace ovo::sim

@@ -38,8 +38,7 @@ class Renderer {
   struct Sample {
     float x, y, z;  // unit bearing in C
   };
-  void renderRow(const VineyardWorld& world, int v, const SE3& T_W_C, double t_s,
-                 float* out) const;
+  void renderRow(const VineyardWorld& world, int v, const SE3& T_W_C, double t_s, float* out) const;
 
   int width_ = 0, height_ = 0, samples_ = 1;
   std::vector<Sample> bearings_;  // samples_ per pixel, row-major; zero vector = invalid

@@ -118,8 +118,7 @@ Scenario readScenario(const Config& c) {
       c.getInRange("world.backdrop_distance_m", dw.backdrop_distance_m, 20.0, 5000.0);
   w.sun_azimuth_deg = c.getInRange("world.sun_azimuth_deg", dw.sun_azimuth_deg, -360.0, 360.0);
   w.sun_elevation_deg = c.getInRange("world.sun_elevation_deg", dw.sun_elevation_deg, 5.0, 90.0);
-  w.ground_roughness_m =
-      c.getInRange("world.ground_roughness_m", dw.ground_roughness_m, 0.0, 0.5);
+  w.ground_roughness_m = c.getInRange("world.ground_roughness_m", dw.ground_roughness_m, 0.0, 0.5);
   w.ground_wavelength_m =
       c.getInRange("world.ground_wavelength_m", dw.ground_wavelength_m, 0.2, 100.0);
   if (w.ground_roughness_m > 0.05 * w.ground_wavelength_m)
@@ -180,8 +179,7 @@ Scenario readScenario(const Config& c) {
   cam.pixel_sigma = c.getInRange("camera.pixel_sigma", dc.pixel_sigma, 0.0, 100.0);
   cam.mount = readMount(c, "camera.mount", dc.mount);
   cam.time_offset_s = c.getInRange("camera.time_offset_s", dc.time_offset_s, -0.5, 0.5);
-  cam.rolling_shutter_s =
-      c.getInRange("camera.rolling_shutter_s", dc.rolling_shutter_s, 0.0, 1.0);
+  cam.rolling_shutter_s = c.getInRange("camera.rolling_shutter_s", dc.rolling_shutter_s, 0.0, 1.0);
   if (cam.rolling_shutter_s >= 1.0 / cam.rate_hz)
     fail("{}: camera.rolling_shutter_s ({} s) must be shorter than the frame period ({} s)",
          c.location("camera.rolling_shutter_s"), cam.rolling_shutter_s, 1.0 / cam.rate_hz);

@@ -105,8 +105,8 @@ struct CameraOptions {
   double pixel_sigma = 0.5;  // written to rig.yaml for estimators (pixels)
   MountOptions mount{0.35, 0.0, 0.7, 0.0, 12.0, 0.0};
   // Sensor realities, each off by default:
-  double time_offset_s = 0.0;      // image stamp = true (gyro-clock) time + this
-  double rolling_shutter_s = 0.0;  // rows read out top to bottom over this time (0: global)
+  double time_offset_s = 0.0;           // image stamp = true (gyro-clock) time + this
+  double rolling_shutter_s = 0.0;       // rows read out top to bottom over this time (0: global)
   double frame_drop_probability = 0.0;  // chance that a frame is missing from the dataset
   bool auto_exposure = false;           // steps the gain when the view brightens or darkens
   double auto_exposure_step = 0.1;      // relative gain change of one step

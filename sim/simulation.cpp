@@ -86,8 +86,7 @@ void Simulation::computeAutoExposure() {
   std::vector<double> meter(frames_);
   tbb::parallel_for(0, frames_, [&](int k) {
     const double t = frameTime(k);
-    meter[k] = exposureGain(t) *
-               renderer_->meanRadiance(*world_, trajectory_.T_W_B(t) * T_B_C_, t);
+    meter[k] = exposureGain(t) * renderer_->meanRadiance(*world_, trajectory_.T_W_B(t) * T_B_C_, t);
   });
   auto_exposure_.assign(frames_, 1.0);
   const double deadband = 0.75 * std::log1p(c.auto_exposure_step);
@@ -98,7 +97,8 @@ void Simulation::computeAutoExposure() {
     const double error = std::log(std::max(meter[k] * gain, 1e-9) / target);
     const double t = frameTime(k);
     if (std::abs(error) > deadband && t - last_step_s >= 1.0 / c.auto_exposure_rate_hz - 1e-9) {
-      gain = error > 0.0 ? gain / (1.0 + c.auto_exposure_step) : gain * (1.0 + c.auto_exposure_step);
+      gain =
+          error > 0.0 ? gain / (1.0 + c.auto_exposure_step) : gain * (1.0 + c.auto_exposure_step);
       last_step_s = t;
     }
   }
@@ -214,8 +214,8 @@ std::vector<LidarScan> Simulation::lidar() const {
           *world_, [&](double tb) { return trajectory_.T_W_B(tb) * T_B_L_; }, t, t_ns, dt_beam,
           scenario_.lidar, seed);
     } else {
-      scans[i] = simulateScan(*world_, trajectory_.T_W_B(t) * T_B_L_, t, t_ns, scenario_.lidar,
-                              seed);
+      scans[i] =
+          simulateScan(*world_, trajectory_.T_W_B(t) * T_B_L_, t, t_ns, scenario_.lidar, seed);
     }
   });
   return scans;

@@ -212,8 +212,7 @@ BodyTrajectory::BodyTrajectory(const Mat3& R_W_T, double body_height_m, UniformC
     : R_W_T_(R_W_T), body_height_m_(body_height_m), spline_(std::move(spline)) {}
 
 BodyTrajectory::BodyTrajectory(const Mat3& R_W_T, double body_height_m, UniformCubicBSpline spline,
-                               std::shared_ptr<const HeightField> field,
-                               const Vec2& plane_gradient)
+                               std::shared_ptr<const HeightField> field, const Vec2& plane_gradient)
     : R_W_T_(R_W_T),
       body_height_m_(body_height_m),
       spline_(std::move(spline)),
@@ -281,8 +280,7 @@ BodyState BodyTrajectory::roughState(double t_s) const {
   const Mat3 K = skew(n0.cross(n)), Kd = skew(n0.cross(nd));
   const double c = n0.dot(n), cd = n0.dot(nd);
   const Mat3 R_tilt = Mat3::Identity() + K + K * K / (1.0 + c);
-  const Mat3 R_tilt_d =
-      Kd + (Kd * K + K * Kd) / (1.0 + c) - K * K * cd / ((1.0 + c) * (1.0 + c));
+  const Mat3 R_tilt_d = Kd + (Kd * K + K * Kd) / (1.0 + c) - K * K * cd / ((1.0 + c) * (1.0 + c));
   const Vec3 omega_tilt_W = vee(R_tilt_d * R_tilt.transpose());
   out.T_W_B.linear() = R_tilt * R_base;
   out.omega_B = R_base.transpose() * (R_tilt.transpose() * omega_tilt_W) + omega_base;

@@ -41,8 +41,7 @@ std::string truthTimingYaml(const Simulation& sim) {
 }
 
 std::string truthFramesCsv(const Simulation& sim) {
-  std::string out =
-      "#frame,t_true [ns],stamp [ns],dropped,light_gain,auto_exposure_gain\n";
+  std::string out = "#frame,t_true [ns],stamp [ns],dropped,light_gain,auto_exposure_gain\n";
   for (int k = 0; k < sim.frameCount(); ++k)
     out += fmt::format("{},{},{},{},{},{}\n", k, sim.frameTrueStamp(k), sim.frameStamp(k),
                        sim.frameDropped(k) ? 1 : 0, sim.exposureGain(sim.frameTime(k)),

@@ -118,6 +118,10 @@ class VineyardWorld {
                            std::uint32_t texture_seed, HitList* out) const;
   float layerCoverage(int row, int layer, double x, double h, double fp_m, double t_s,
                       float* tone) const;
+  /// y of leaf layer k of a row (k < canopy_layers) or of the row's centre line (k = layers).
+  double rowLineY(int row, int k) const;
+  /// groundHeight(x, rowLineY(row, k)), from a table on uneven ground.
+  double rowGroundHeight(int row, int k, double x) const;
   float groundTone(double x, double y, double fp_m) const;
   float skyTone(const Vec3& d, double fp) const;
   float backdropTone(double arc_m, double z, double fp_m) const;
@@ -136,6 +140,11 @@ class VineyardWorld {
   std::vector<Walker> walkers_;
   std::vector<Marker> markers_;
   std::shared_ptr<const HeightField> field_;  // null: flat ground
+  // The field along the leaf layers' lines (k < canopy_layers) and the row's centre line
+  // (k = canopy_layers) of every row, from x = row_ground_x0_ at kRowGroundStep.
+  static constexpr double kRowGroundStep = 0.01;
+  std::vector<std::vector<double>> row_ground_;
+  double row_ground_x0_ = 0.0;
 };
 
 }  // namespace ovo::sim

@@ -89,7 +89,8 @@ TEST(LidarTiming, InstantaneousScansKeepThePlainLayoutAndReadWithANote) {
 
 TEST(LidarTiming, AnOldFileWithoutHeaderOrTimesStillReads) {
   const fs::path csv = test::tempDir() / "data.csv";
-  test::writeTextFile(csv, "1000000000,-1.5,0.5,0.1,30,1.0,nan,2.5\n1100000000,-1.5,0.5,0.1,30,1,2,3\n");
+  test::writeTextFile(csv,
+                      "1000000000,-1.5,0.5,0.1,30,1.0,nan,2.5\n1100000000,-1.5,0.5,0.1,30,1,2,3\n");
   bool beam_times = true;
   const std::vector<LidarScan> scans = readLidarCsv(csv, &beam_times);
   EXPECT_FALSE(beam_times);

@@ -77,8 +77,10 @@ TEST(HeightField, WorldGroundIsThePlanePlusTheFieldWithItsNormal) {
   for (const Vec2 p : {Vec2(3.0, 4.0), Vec2(25.0, 7.5), Vec2(42.0, -2.0)}) {
     const double z = world.groundHeight(p.x(), p.y());
     EXPECT_NEAR(z, 0.08 * p.x() + 0.03 * p.y() + world.heightField()->height(p.x(), p.y()), 1e-12);
-    const double dzdx = (world.groundHeight(p.x() + h, p.y()) - world.groundHeight(p.x() - h, p.y())) / (2 * h);
-    const double dzdy = (world.groundHeight(p.x(), p.y() + h) - world.groundHeight(p.x(), p.y() - h)) / (2 * h);
+    const double dzdx =
+        (world.groundHeight(p.x() + h, p.y()) - world.groundHeight(p.x() - h, p.y())) / (2 * h);
+    const double dzdy =
+        (world.groundHeight(p.x(), p.y() + h) - world.groundHeight(p.x(), p.y() - h)) / (2 * h);
     const Vec3 n = Vec3(-dzdx, -dzdy, 1.0).normalized();
     EXPECT_LT((world.groundNormalAt(p.x(), p.y()) - n).norm(), 1e-8);
   }
@@ -207,7 +209,7 @@ TEST(HeightField, GyroIntegratesToTheTruthsRotationOnUnevenGround) {
     const Vec3 w = imu[k].gyro_radps;
     max_rate = std::max(max_rate, std::hypot(w.x(), w.y()));
   }
-  EXPECT_LT(max_err, 2e-3);                       // rad, over about 40 s
+  EXPECT_LT(max_err, 2e-3);                 // rad, over about 40 s
   EXPECT_GT(max_rate, 3.0 * M_PI / 180.0);  // the ground rolls and pitches the body
 }
 

@@ -77,8 +77,8 @@ TEST(LidarSweep, EachBeamIsTheUnsweptBeamOfThePoseAtItsTime) {
     EXPECT_EQ(scan.t_ns, sim.frameTrueStamp(frame));
     EXPECT_EQ(scan.time_increment_s, dt);
     const double t0 = sim.frameTime(frame);
-    const double yaw_rate = std::abs((sim.trajectory().state(t0).T_W_B.linear() *
-                                      sim.trajectory().state(t0).omega_B).z());
+    const double yaw_rate = std::abs(
+        (sim.trajectory().state(t0).T_W_B.linear() * sim.trajectory().state(t0).omega_B).z());
     if (yaw_rate < 10.0 * kDeg) continue;  // in the turn only
     const LidarScan at_t0 =
         simulateScan(sim.world(), sim.trajectory().T_W_B(t0) * sim.T_B_L(), t0, 0, s.lidar, 1);
@@ -87,8 +87,7 @@ TEST(LidarSweep, EachBeamIsTheUnsweptBeamOfThePoseAtItsTime) {
       const LidarScan single =
           simulateScan(sim.world(), sim.trajectory().T_W_B(t) * sim.T_B_L(), t, 0, s.lidar, 1);
       EXPECT_TRUE(sameRange(scan.ranges_m[i], single.ranges_m[i])) << "scan " << k << " beam " << i;
-      if (scan.valid(i) && at_t0.valid(i) &&
-          std::abs(scan.ranges_m[i] - at_t0.ranges_m[i]) > 0.05)
+      if (scan.valid(i) && at_t0.valid(i) && std::abs(scan.ranges_m[i] - at_t0.ranges_m[i]) > 0.05)
         ++moved;
       ++checked;
     }

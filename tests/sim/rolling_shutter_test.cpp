@@ -66,8 +66,8 @@ TEST(RollingShutter, PureYawLeansAVerticalLineOfMarkersByTheRateTimesTheReadout)
     const auto c = test::diffCentroid(white, black, px, 12);
     const auto g = test::diffCentroid(white_global, black_global, px, 16);
     ASSERT_TRUE(c && g) << z;
-    EXPECT_LT((*c - px).norm(), 0.3) << "z " << z << ": at " << c->transpose() << ", expected "
-                                     << px.transpose();
+    EXPECT_LT((*c - px).norm(), 0.3)
+        << "z " << z << ": at " << c->transpose() << ", expected " << px.transpose();
     seen.push_back(*c);
     global.push_back(*g);
   }
@@ -95,7 +95,7 @@ TEST(RollingShutter, SimulatedFrameRowsAreThePosesOfTheirReadoutTimes) {
   ASSERT_GT(rs.trajectory().state(rs.frameTime(k)).v_W.norm(), 0.5);
   const cv::Mat frame = rs.renderFrame(k), global = gs.renderFrame(k);
   const int rows = rs.renderer().height();
-  EXPECT_DOUBLE_EQ(rs.rowTime(k, rows - 1) - rs.frameTime(k), 0.03 * (rows - 1) / rows);
+  EXPECT_NEAR(rs.rowTime(k, rows - 1) - rs.frameTime(k), 0.03 * (rows - 1) / rows, 1e-12);
   for (int v : {0, rows / 3, rows - 60}) {
     const double t = rs.rowTime(k, v);
     const cv::Mat radiance =
@@ -104,7 +104,8 @@ TEST(RollingShutter, SimulatedFrameRowsAreThePosesOfTheirReadoutTimes) {
     for (int u = 0; u < radiance.cols; ++u) {  // renderFrame's conversion without noise, gain 1
       const float g = 255.0f * radiance.at<float>(v, u);
       const auto expected = static_cast<int>(std::clamp(std::lround(g), 0L, 255L));
-      if (rs.renderer().validMask().at<std::uint8_t>(v, u) && frame.at<std::uint8_t>(v, u) != expected)
+      if (rs.renderer().validMask().at<std::uint8_t>(v, u) &&
+          frame.at<std::uint8_t>(v, u) != expected)
         ++differ;
     }
     EXPECT_EQ(differ, 0) << "row " << v;

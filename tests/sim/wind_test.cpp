@@ -63,7 +63,8 @@ TEST(Wind, LeavesMoveUnderTheLidarWhilePostsStayPut) {
   const LidarScan c = canopyScan(calm, 0.0), d = canopyScan(calm, 0.7);
   int leaves = 0, changed = 0;
   for (std::size_t i = 0; i < a.ranges_m.size(); ++i) {
-    EXPECT_TRUE(c.ranges_m[i] == d.ranges_m[i] || (std::isnan(c.ranges_m[i]) && std::isnan(d.ranges_m[i])));
+    EXPECT_TRUE(c.ranges_m[i] == d.ranges_m[i] ||
+                (std::isnan(c.ranges_m[i]) && std::isnan(d.ranges_m[i])));
     if (!a.valid(i) || a.ranges_m[i] > 3.0) continue;  // the leaves of the two rows beside
     ++leaves;
     if (!b.valid(i) || std::abs(a.ranges_m[i] - b.ranges_m[i]) > 0.01) ++changed;
@@ -99,7 +100,8 @@ TEST(Wind, TrunksStayPut) {
   const LidarScan b = simulateScan(world, T_W_L, 1.3, 0, o, 1);
   int trunks = 0;
   for (std::size_t i = 0; i < a.ranges_m.size(); ++i) {
-    EXPECT_TRUE(a.ranges_m[i] == b.ranges_m[i] || (std::isnan(a.ranges_m[i]) && std::isnan(b.ranges_m[i])))
+    EXPECT_TRUE(a.ranges_m[i] == b.ranges_m[i] ||
+                (std::isnan(a.ranges_m[i]) && std::isnan(b.ranges_m[i])))
         << i;
     if (a.valid(i) && a.ranges_m[i] < 2.0) ++trunks;
   }
