@@ -79,9 +79,9 @@ void Simulation::build() {
 
 void Simulation::computeAutoExposure() {
   // The meter: the mean radiance of every 16th pixel across and down (each frame's on its own,
-  // in parallel), times the light's gain and the auto-exposure's gain. The
-  // controller steps the gain for the next frame when the metered brightness is off the first
-  // frame's by more than three quarters of a step, at most auto_exposure_rate_hz times a second.
+  // in parallel), times the light's gain and the auto-exposure's gain. The controller steps the
+  // gain for the next frame when the metered brightness is off the first frame's by more than
+  // three quarters of a step, at most auto_exposure_rate_hz times a second.
   const CameraOptions& c = scenario_.camera;
   std::vector<double> meter(frames_);
   tbb::parallel_for(0, frames_, [&](int k) {
