@@ -91,6 +91,7 @@ int runRun(const RunArgs& args) {
 
   estimator::SensorSetup setup = sensorSetupFrom(data);
   std::vector<std::string> setup_notes = estimator::applyNoiseFloors(setup);
+  for (auto& note : io::lidarTimingNotes(data)) setup_notes.push_back(std::move(note));
   // An estimator that uses the LiDAR may take the camera height from it when the rig gives none
   // (vo, the plain camera chain, stays without).
   if (estimator::estimatorUsesLidar(args.estimator, config))

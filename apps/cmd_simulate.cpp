@@ -19,6 +19,7 @@
 #include "sim/board_scene.hpp"
 #include "sim/scenario.hpp"
 #include "sim/simulation.hpp"
+#include "sim/truth_files.hpp"
 
 namespace ovo::app {
 
@@ -62,7 +63,8 @@ int runSimulate(const SimulateArgs& args) {
   std::atomic<int> done{0};
   if (!bag_format) {
     tbb::parallel_for(0, frames, [&](int k) {
-      writer.writeImage(simulation.frameStamp(k), simulation.renderFrame(k));
+      if (!simulation.frameDropped(k))
+        writer.writeImage(simulation.frameStamp(k), simulation.renderFrame(k));
       const int n = ++done;
       if (n % std::max(1, frames / 10) == 0) spdlog::info("simulate: {}/{} frames", n, frames);
     });
@@ -72,9 +74,12 @@ int runSimulate(const SimulateArgs& args) {
     std::vector<cv::Mat> batch(kBatch);
     for (int first = 0; first < frames; first += kBatch) {
       const int n = std::min(kBatch, frames - first);
-      tbb::parallel_for(0, n, [&](int i) { batch[i] = simulation.renderFrame(first + i); });
+      tbb::parallel_for(0, n, [&](int i) {
+        if (!simulation.frameDropped(first + i)) batch[i] = simulation.renderFrame(first + i);
+      });
       for (int i = 0; i < n; ++i) {
-        writer.writeImage(simulation.frameStamp(first + i), batch[i]);
+        if (!simulation.frameDropped(first + i))
+          writer.writeImage(simulation.frameStamp(first + i), batch[i]);
         if (++done % std::max(1, frames / 10) == 0)
           spdlog::info("simulate: {}/{} frames", done.load(), frames);
       }
@@ -101,6 +106,10 @@ int runSimulate(const SimulateArgs& args) {
   rig.camera_rate_hz = scenario.camera.rate_hz;
   rig.pixel_sigma = scenario.camera.pixel_sigma;
   rig.camera_height_m = simulation.cameraHeightM();
+  // The estimator's starting value of the time offset (not the truth) and the readout time (a
+  // data-sheet value the user knows).
+  rig.camera_time_offset_s = scenario.rig.camera_time_offset_s;
+  rig.camera_rolling_shutter_s = scenario.camera.rolling_shutter_s;
   rig.gyro_rate_hz = scenario.imu.rate_hz;
   rig.gyro_noise_density = scenario.imu.noise ? scenario.imu.gyro_noise_density : 0.0;
   rig.gyro_bias_random_walk = scenario.imu.noise ? scenario.imu.gyro_bias_random_walk : 0.0;
@@ -108,13 +117,22 @@ int runSimulate(const SimulateArgs& args) {
   rig.lidar_range_sigma_m = scenario.lidar.noise ? scenario.lidar.range_sigma_m : 0.0;
   writer.writeRig(rig);
   writer.writeText("sim/scenario.yaml", sim::scenarioYaml(scenario));
+  if (sim::hasTimingRealities(scenario)) {
+    writer.writeText("sim/truth_timing.yaml", sim::truthTimingYaml(simulation));
+    writer.writeText("sim/truth_frames.csv", sim::truthFramesCsv(simulation));
+  }
   writer.commit();
 
   const auto end = std::chrono::steady_clock::now();
   const double render_s = std::chrono::duration<double>(rendered - start).count();
   const double total_s = std::chrono::duration<double>(end - start).count();
-  spdlog::info("simulate: wrote {} frames to {} in {:.1f} s ({:.1f} frames/s rendering)", frames,
-               args.out, total_s, frames / std::max(render_s, 1e-9));
+  int dropped = 0;
+  for (int k = 0; k < frames; ++k) dropped += simulation.frameDropped(k) ? 1 : 0;
+  if (dropped > 0)
+    spdlog::info("simulate: {} of {} frames dropped (camera.frame_drop_probability {})", dropped,
+                 frames, scenario.camera.frame_drop_probability);
+  spdlog::info("simulate: wrote {} frames to {} in {:.1f} s ({:.1f} frames/s rendering)",
+               frames - dropped, args.out, total_s, frames / std::max(render_s, 1e-9));
   return 0;
 }
 

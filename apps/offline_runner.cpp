@@ -287,6 +287,8 @@ estimator::SensorSetup sensorSetupFrom(const io::Dataset& data) {
   s.camera_rate_hz = data.rig.camera_rate_hz;
   s.pixel_sigma = data.rig.pixel_sigma;
   s.camera_height_m = data.rig.camera_height_m;
+  s.time_offset_s = data.rig.camera_time_offset_s;
+  s.rolling_shutter_s = data.rig.camera_rolling_shutter_s;
   s.gyro_noise_density = data.rig.gyro_noise_density;
   s.gyro_bias_random_walk = data.rig.gyro_bias_random_walk;
   s.lidar_range_sigma_m = data.rig.lidar_range_sigma_m;

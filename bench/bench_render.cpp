@@ -1,5 +1,6 @@
 // Simulator rendering speed: frames per second of the ray-cast vineyard (image noise and exposure
-// included), for the default fisheye scenario and its pinhole twin.
+// included), for the default fisheye scenario, its pinhole twin and vineyard_real (uneven ground,
+// wind, rolling shutter, auto-exposure).
 #include <benchmark/benchmark.h>
 
 #include <memory>
@@ -29,5 +30,8 @@ BENCHMARK_CAPTURE(BM_Render, ocam640x480, "vineyard_row.yaml")
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
 BENCHMARK_CAPTURE(BM_Render, pinhole640x480, "vineyard_row_pinhole.yaml")
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
+BENCHMARK_CAPTURE(BM_Render, ocam640x480_real, "vineyard_real.yaml")
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();

@@ -39,7 +39,8 @@ struct ImuSample {
 
 /// One planar LiDAR scan in the LiDAR frame L: beam i has angle angle_min + i * angle_increment
 /// in the x-y plane of L (x forward at angle 0); a range outside [range_min, range_max] (or NaN)
-/// is no return.
+/// is no return. Beam i is taken at t_ns + i * time_increment_s (ROS LaserScan's stamp and
+/// time_increment: the stamp is the first beam's time); time_increment_s = 0: instantaneous.
 struct LidarScan {
   Timestamp t_ns = 0;
   double angle_min_rad = 0.0;

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <fstream>
 #include <limits>
 #include <regex>
 
@@ -103,32 +104,55 @@ std::vector<ImuSample> readImu(const fs::path& csv, const RecordPolicy& policy,
   return imu;
 }
 
+// True when the file's first line is a '#' header naming `column`.
+bool headerNames(const fs::path& file, std::string_view column) {
+  std::ifstream in(file);
+  std::string line;
+  if (!std::getline(in, line)) return false;
+  const std::size_t first = line.find('#');
+  return first != std::string::npos && line.find_first_not_of(" \t\xEF\xBB\xBF") == first &&
+         line.find(column) != std::string::npos;
+}
+
+// A scan longer than this is no scan (time_increment in another unit).
+constexpr double kMaxScanDurationS = 1.0;
+
 std::vector<LidarScan> readLidar(const fs::path& csv, const RecordPolicy& policy,
-                                 SkippedRecords& skipped) {
-  TextReader in(csv,
-                "LiDAR scans: t[ns], angle_min, angle_increment [rad], range_min, range_max, "
-                "ranges [m]...");
+                                 SkippedRecords& skipped, bool* beam_times) {
+  // With per-beam times (a time_increment column after angle_increment, named in the header).
+  const bool timed = headerNames(csv, "time_increment");
+  if (beam_times) *beam_times = timed;
+  const std::size_t t = timed ? 1 : 0;  // columns before range_min beyond the plain layout's
+  TextReader in(csv, timed ? "LiDAR scans: t[ns], angle_min, angle_increment [rad], "
+                             "time_increment [s], range_min, range_max, ranges [m]..."
+                           : "LiDAR scans: t[ns], angle_min, angle_increment [rad], range_min, "
+                             "range_max, ranges [m]...");
   std::size_t columns = 0;
   auto scans = readRecordStream(in, "lidar", policy, skipped, [&](const auto& tok) {
-    if (tok.size() < 6)
+    if (tok.size() < 6 + t)
       in.reject("columns",
-                "expected t[ns], angle_min, angle_increment, range_min, range_max and at least one "
-                "range, got {} columns",
-                tok.size());
+                "expected t[ns], angle_min, angle_increment, {}range_min, range_max and at least "
+                "one range, got {} columns",
+                timed ? "time_increment, " : "", tok.size());
     if (columns != 0 && tok.size() != columns)
       in.reject("columns", "expected {} columns like the first scan, got {}", columns, tok.size());
     LidarScan s;
     s.t_ns = in.integer(tok[0], "the time stamp [ns]");
     s.angle_min_rad = in.number(tok[1], "angle_min [rad]");
     s.angle_increment_rad = in.number(tok[2], "angle_increment [rad]");
-    s.range_min_m = in.number(tok[3], "range_min [m]");
-    s.range_max_m = in.number(tok[4], "range_max [m]");
+    if (timed) s.time_increment_s = in.number(tok[3], "time_increment [s]");
+    s.range_min_m = in.number(tok[3 + t], "range_min [m]");
+    s.range_max_m = in.number(tok[4 + t], "range_max [m]");
     if (s.angle_increment_rad == 0.0) in.reject("bad_header", "angle_increment must not be 0");
+    if (std::abs(s.time_increment_s) * static_cast<double>(tok.size() - 6 - t) > kMaxScanDurationS)
+      in.reject("bad_header",
+                "time_increment {} s makes the scan's {} beams last over {} s: expected seconds",
+                s.time_increment_s, tok.size() - 5 - t, kMaxScanDurationS);
     if (!(s.range_min_m >= 0.0 && s.range_min_m < s.range_max_m))
       in.reject("bad_header", "expected 0 <= range_min < range_max, got {} and {}", s.range_min_m,
                 s.range_max_m);
-    s.ranges_m.reserve(tok.size() - 5);
-    for (std::size_t i = 5; i < tok.size(); ++i) {
+    s.ranges_m.reserve(tok.size() - 5 - t);
+    for (std::size_t i = 5 + t; i < tok.size(); ++i) {
       // nan/inf or a value outside [range_min, range_max] is "no return".
       const double r = in.numberOrNonFinite(tok[i], "a range [m]");
       s.ranges_m.push_back(std::isnan(r) ? std::numeric_limits<double>::quiet_NaN() : r);
@@ -195,10 +219,12 @@ Dataset loadOvo(const fs::path& root, const fs::path& base, const RecordPolicy& 
   if (fs::exists(base / "imu0" / "data.csv"))
     ds.imu = readImu(base / "imu0" / "data.csv", policy, ds.skipped);
   if (fs::exists(base / "lidar0" / "data.csv"))
-    ds.scans = readLidar(base / "lidar0" / "data.csv", policy, ds.skipped);
+    ds.scans = readLidar(base / "lidar0" / "data.csv", policy, ds.skipped, nullptr);
   if (auto gt = readOvoGroundtruth(root, base)) ds.groundtruth = std::move(*gt);
   if (fs::exists(root / "sim" / "truth_bias.csv"))
     ds.true_gyro_bias = readGyroBiasCsv(root / "sim" / "truth_bias.csv");
+  if (fs::exists(root / "sim" / "truth_timing.yaml"))
+    ds.true_timing = readTrueTiming(root / "sim" / "truth_timing.yaml");
 
   if (!ds.rig.has_rig_file) {
     if (auto r = rateHz(ds.images, [](const ImageEntry& e) { return e.t_ns; }))
@@ -355,6 +381,10 @@ RigInfo readRigYaml(const fs::path& file) {
   rig.pixel_sigma = cfg.getInRange("camera.pixel_sigma", rig.pixel_sigma, kMin, kMax);
   if (cfg.has("camera.height_m"))
     rig.camera_height_m = cfg.getInRange("camera.height_m", 0.0, kMin, kMax);
+  rig.camera_time_offset_s =
+      cfg.getInRange("camera.time_offset_s", rig.camera_time_offset_s, -1.0, 1.0);
+  rig.camera_rolling_shutter_s =
+      cfg.getInRange("camera.rolling_shutter_s", rig.camera_rolling_shutter_s, 0.0, 1.0);
   rig.gyro_rate_hz = cfg.getInRange("gyro.rate_hz", rig.gyro_rate_hz, kMin, kMax);
   rig.gyro_noise_density = cfg.getInRange("gyro.noise_density", rig.gyro_noise_density, 0.0, kMax);
   rig.gyro_bias_random_walk =
@@ -370,6 +400,37 @@ RigInfo readRigYaml(const fs::path& file) {
   }
   cfg.checkAllUsed();
   return rig;
+}
+
+std::vector<LidarScan> readLidarCsv(const fs::path& csv, bool* beam_times) {
+  SkippedRecords skipped;
+  return readLidar(csv, RecordPolicy{.strict = true}, skipped, beam_times);
+}
+
+TrueTiming readTrueTiming(const fs::path& file) {
+  const Config cfg = Config::load(file);
+  TrueTiming t;
+  t.camera_time_offset_s = cfg.getInRange("camera.time_offset_s", 0.0, -1.0, 1.0);
+  t.camera_rolling_shutter_s = cfg.getInRange("camera.rolling_shutter_s", 0.0, 0.0, 1.0);
+  t.camera_frames = cfg.getIntInRange("camera.frames", 0, 0, 1'000'000'000);
+  t.camera_frames_dropped = cfg.getIntInRange("camera.frames_dropped", 0, 0, 1'000'000'000);
+  t.lidar_time_increment_s = cfg.getInRange("lidar.time_increment_s", 0.0, -1.0, 1.0);
+  t.lidar_scan_time_s = cfg.getInRange("lidar.scan_time_s", 0.0, 0.0, 1000.0);
+  t.lidar_beams = cfg.getIntInRange("lidar.beams", 0, 0, 1'000'000'000);
+  t.imu_time_jitter_s = cfg.getInRange("imu.time_jitter_s", 0.0, 0.0, 1.0);
+  cfg.checkAllUsed();
+  return t;
+}
+
+std::vector<std::string> lidarTimingNotes(const Dataset& data) {
+  if (data.scans.empty() ||
+      std::any_of(data.scans.begin(), data.scans.end(),
+                  [](const LidarScan& s) { return s.time_increment_s != 0.0; }))
+    return {};
+  return {
+      fmt::format("LiDAR: {} scans without per-beam times (no time_increment column): taken as "
+                  "instantaneous",
+                  data.scans.size())};
 }
 
 namespace {

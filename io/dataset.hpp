@@ -34,6 +34,8 @@ struct RigInfo {
   double camera_rate_hz = 20.0;
   double pixel_sigma = 0.5;               // image noise [px]
   std::optional<double> camera_height_m;  // camera height above the ground [m]
+  double camera_time_offset_s = 0.0;      // image stamp = gyro-clock time + this (a prior) [s]
+  double camera_rolling_shutter_s = 0.0;  // rows read out top to bottom over this (0: global) [s]
   double gyro_rate_hz = 200.0;
   double gyro_noise_density = 1.7e-4;     // [rad/s/sqrt(Hz)]
   double gyro_bias_random_walk = 2.0e-5;  // [rad/s^2/sqrt(Hz)]
@@ -42,6 +44,18 @@ struct RigInfo {
   bool has_rig_file = false;
   bool has_T_B_C = false;  // the rig file gave T_B_C (without it: the camera's sensor.yaml T_BS)
   std::filesystem::path camera_calibration;  // camera.calibration (bags): the calibration file
+};
+
+/// The simulator's truth of the sensors' timing (sim/truth_timing.yaml), in seconds.
+struct TrueTiming {
+  double camera_time_offset_s = 0.0;      // image stamp = true time + this
+  double camera_rolling_shutter_s = 0.0;  // readout time, top row to bottom
+  int camera_frames = 0;                  // frames rendered, dropped ones included
+  int camera_frames_dropped = 0;
+  double lidar_time_increment_s = 0.0;  // beam i at the scan's stamp + i * this
+  double lidar_scan_time_s = 0.0;       // one turn of the mirror (0: instantaneous)
+  int lidar_beams = 0;
+  double imu_time_jitter_s = 0.0;  // std of the gyro stamps around the true sample times
 };
 
 /// Everything of a sequence except the pixels. Ground truth is T_W_B.
@@ -58,6 +72,7 @@ struct Dataset {
   std::vector<std::pair<Timestamp, Vec3>> true_gyro_bias;  // [rad/s], simulator only
   std::vector<std::string> notes;  // what the reader assumed (a bag's record times, ...)
   SkippedRecords skipped;  // bad records the readers skipped (RecordPolicy), by sensor and reason
+  std::optional<TrueTiming> true_timing;                   // sim/truth_timing.yaml, simulator only
 };
 
 /// How a dataset is read: for bags the rig file (--rig) and the topics (--topics
@@ -73,8 +88,9 @@ struct LoadOptions {
 /// Detects the layout of `root` and reads it:
 /// - ovo/EuRoC: root holds cam0/ (or mav0/cam0/): cam0/data.csv + cam0/data/*.png and a
 ///   calibration in cam0/ (calib_results.txt or sensor.yaml); optional imu0/data.csv,
-///   lidar0/data.csv, rig.yaml, groundtruth.txt (TUM) or state_groundtruth_estimate0/ (data.csv or
-///   a TUM .txt), sim/truth_bias.csv;
+///   lidar0/data.csv (with or without per-beam times: readLidarCsv), rig.yaml, groundtruth.txt
+///   (TUM) or state_groundtruth_estimate0/ (data.csv or a TUM .txt), sim/truth_bias.csv,
+///   sim/truth_timing.yaml;
 /// - KITTI odometry: image_0/*.png, calib.txt (P0), times.txt, optional poses file (poses*.txt or
 ///   NN.txt, 3x4 rows with or without a leading time); the KITTI rig (kittiBodyFromCamera(), camera
 ///   1.65 m above the road, pitch 0) and the ground truth turned into T_W_B with W z-up.
@@ -113,6 +129,21 @@ SE3 cameraExtrinsics(const RigInfo& rig, const std::optional<SE3>& T_B_C_calib,
 /// Reads rig.yaml (unknown keys, bad values and non-rigid transforms are errors naming the key).
 /// camera.calibration (a path relative to the rig file) is kept for bags; folders use cam0/.
 RigInfo readRigYaml(const std::filesystem::path& file);
+
+/// Reads lidar0/data.csv, one scan a row, in either layout (DESIGN.md section 10 and README):
+///   t_ns, angle_min, angle_increment, range_min, range_max, r_0, ..., r_n-1
+///   t_ns, angle_min, angle_increment, time_increment, range_min, range_max, r_0, ..., r_n-1
+/// The second when the header line (the first line, a '#' comment) names a time_increment column:
+/// beam i was taken at t_ns + i * time_increment [s] (ROS LaserScan's stamp and time_increment).
+/// The first gives instantaneous scans (time_increment 0); *beam_times says which it was.
+std::vector<LidarScan> readLidarCsv(const std::filesystem::path& csv, bool* beam_times = nullptr);
+
+/// Reads sim/truth_timing.yaml (what `ovo simulate` writes there).
+TrueTiming readTrueTiming(const std::filesystem::path& file);
+
+/// Notes on how the dataset's LiDAR scans are timed: none without scans or when a scan has
+/// per-beam times (a time_increment), else that the scans are taken as instantaneous.
+std::vector<std::string> lidarTimingNotes(const Dataset& data);
 
 /// One note per sensor of `data` (gyro, LiDAR) and for `groundtruth` whose stamps do not overlap
 /// the camera frames' span: it is on another clock (or in another unit) and would go unused

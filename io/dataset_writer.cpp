@@ -113,13 +113,24 @@ void DatasetWriter::writeLidar(const std::vector<LidarScan>& scans) {
   }
   fs::create_directories(stagingDir() / "lidar0");
   TextFile f(stagingDir() / "lidar0" / "data.csv");
-  f.print(
-      "#timestamp [ns],angle_min [rad],angle_increment [rad],range_min [m],range_max [m],ranges "
-      "[m]...\n");
+  // Per-beam times (a time_increment column) only when a scan has them: instantaneous scans keep
+  // the plain layout.
+  const bool timed = std::any_of(scans.begin(), scans.end(),
+                                 [](const LidarScan& s) { return s.time_increment_s != 0.0; });
+  if (timed)
+    f.print(
+        "#timestamp [ns],angle_min [rad],angle_increment [rad],time_increment [s],range_min [m],"
+        "range_max [m],ranges [m]...\n");
+  else
+    f.print(
+        "#timestamp [ns],angle_min [rad],angle_increment [rad],range_min [m],range_max [m],ranges "
+        "[m]...\n");
   std::string line;
   for (const auto& s : scans) {
-    line = fmt::format("{},{},{},{},{}", s.t_ns, s.angle_min_rad, s.angle_increment_rad,
-                       s.range_min_m, s.range_max_m);
+    line = timed ? fmt::format("{},{},{},{},{},{}", s.t_ns, s.angle_min_rad, s.angle_increment_rad,
+                               s.time_increment_s, s.range_min_m, s.range_max_m)
+                 : fmt::format("{},{},{},{},{}", s.t_ns, s.angle_min_rad, s.angle_increment_rad,
+                               s.range_min_m, s.range_max_m);
     for (double r : s.ranges_m) line += (r == r) ? fmt::format(",{}", r) : std::string(",nan");
     line += '\n';
     f.print("{}", line);
@@ -138,7 +149,14 @@ void DatasetWriter::writeRig(const RigInfo& rig) {
   f.print("T_B_L: {}   # LiDAR -> body\n", matrixRow16(rig.T_B_L));
   f.print("camera: {{rate_hz: {}, pixel_sigma: {}", rig.camera_rate_hz, rig.pixel_sigma);
   if (rig.camera_height_m) f.print(", height_m: {}", *rig.camera_height_m);
+  if (rig.camera_time_offset_s != 0.0) f.print(", time_offset_s: {}", rig.camera_time_offset_s);
+  if (rig.camera_rolling_shutter_s != 0.0)
+    f.print(", rolling_shutter_s: {}", rig.camera_rolling_shutter_s);
   f.print("}}   # height_m: camera height above the ground (m)\n");
+  if (rig.camera_time_offset_s != 0.0 || rig.camera_rolling_shutter_s != 0.0)
+    f.print(
+        "# time_offset_s: image stamp = gyro-clock time + this (s); rolling_shutter_s: rows read "
+        "out top to bottom over this (s)\n");
   f.print(
       "gyro: {{rate_hz: {}, noise_density: {}, bias_random_walk: {}}}   # rad/s/sqrt(Hz), "
       "rad/s^2/sqrt(Hz)\n",

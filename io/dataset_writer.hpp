@@ -45,7 +45,8 @@ class DatasetWriter {
   void writeCamera(const camera::Camera& camera, const SE3& T_B_C, double rate_hz);
   /// imu0/data.csv (gyro rad/s, accelerometer m/s^2, in B).
   void writeImu(const std::vector<ImuSample>& samples);
-  /// lidar0/data.csv, one scan a row; no return written as nan. In a bag: LaserScan messages
+  /// lidar0/data.csv, one scan a row; no return written as nan; with a time_increment column when
+  /// a scan has per-beam times (io::readLidarCsv reads both layouts). In a bag: LaserScan messages
   /// (float32 values, scan_time the median time between scans).
   void writeLidar(const std::vector<LidarScan>& scans);
   /// groundtruth.txt (TUM, T_W_B).

@@ -1,5 +1,6 @@
 #include "sim/imu.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 #include "sim/random.hpp"
@@ -25,6 +26,8 @@ std::vector<ImuSample> simulateImu(const BodyTrajectory& trajectory, const ImuOp
                sa = o.accel_noise_density / std::sqrt(dt);
   const double wg = o.gyro_bias_random_walk * std::sqrt(dt),
                wa = o.accel_bias_random_walk * std::sqrt(dt);
+  // Stamp jitter: its own stream, so the samples do not change with it.
+  Rng jitter_rng(subSeed(seed, 11));
   std::vector<ImuSample> out;
   out.reserve(n);
   if (true_gyro_bias) true_gyro_bias->clear();
@@ -34,6 +37,9 @@ std::vector<ImuSample> simulateImu(const BodyTrajectory& trajectory, const ImuOp
     const BodyState s = trajectory.state(t);
     ImuSample sample;
     sample.t_ns = t_start_ns + offset_ns;
+    const Timestamp true_t_ns = sample.t_ns;
+    if (o.time_jitter_s > 0.0)
+      sample.t_ns += fromSeconds(o.time_jitter_s * std::clamp(jitter_rng.normal(), -3.0, 3.0));
     sample.gyro_radps = s.omega_B;
     sample.accel_mps2 = s.T_W_B.linear().transpose() * (s.a_W - gravityW());
     if (o.noise) {
@@ -41,7 +47,7 @@ std::vector<ImuSample> simulateImu(const BodyTrajectory& trajectory, const ImuOp
       sample.accel_mps2 += b_a + draw(sa);
     }
     out.push_back(sample);
-    if (true_gyro_bias) true_gyro_bias->push_back({sample.t_ns, b_g});
+    if (true_gyro_bias) true_gyro_bias->push_back({true_t_ns, b_g});
     if (o.noise) {
       b_g += draw(wg);
       b_a += draw(wa);

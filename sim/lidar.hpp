@@ -1,10 +1,12 @@
 // Planar LiDAR model: beams in the x-y plane of L (angle 0 along +x, increasing towards +y) cast
 // into the same world the camera sees (leaf layers block a beam where their coverage reaches 0.5,
 // so beams pass through canopy gaps), with Gaussian range noise, a maximum range and random
-// dropouts. Scans are instantaneous at their stamp (no motion skew).
+// dropouts. A scan is instantaneous at its stamp, or swept: beam i cast from the pose at
+// stamp + i * time_increment (motion skew, as a turning mirror's beams are).
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <vector>
 
 #include "common/types.hpp"
@@ -21,5 +23,12 @@ int lidarBeamCount(const LidarOptions& options);
 /// of this scan (ignored when options.noise is false). No return: NaN.
 LidarScan simulateScan(const VineyardWorld& world, const SE3& T_W_L, double t_s, Timestamp t_ns,
                        const LidarOptions& options, std::uint64_t noise_seed);
+
+/// A swept scan: beam i is cast from T_W_L_at(t_s + i * time_increment_s) into the world at that
+/// time; the scan is stamped t_ns (the first beam) and carries time_increment_s. The noise draws
+/// are those of simulateScan for the same seed (time_increment_s = 0 gives simulateScan's scan).
+LidarScan simulateSweptScan(const VineyardWorld& world, const std::function<SE3(double)>& T_W_L_at,
+                            double t_s, Timestamp t_ns, double time_increment_s,
+                            const LidarOptions& options, std::uint64_t noise_seed);
 
 }  // namespace ovo::sim

@@ -4,6 +4,7 @@
 #include <tbb/parallel_for.h>
 
 #include <cmath>
+#include <stdexcept>
 
 namespace ovo::sim {
 
@@ -50,33 +51,66 @@ Renderer::Renderer(const camera::Camera& cam, const RenderOptions& options)
   });
 }
 
-cv::Mat Renderer::renderRadiance(const VineyardWorld& world, const SE3& T_W_C, double t_s) const {
-  cv::Mat image(height_, width_, CV_32F, cv::Scalar(0.0f));
+void Renderer::renderRow(const VineyardWorld& world, int v, const SE3& T_W_C, double t_s,
+                         float* out) const {
   const Mat3 R_W_C = T_W_C.linear();
   const Vec3 o_W = T_W_C.translation();
   const int per_pixel = samples_ * samples_;
-  tbb::parallel_for(
-      tbb::blocked_range<int>(0, height_, 4), [&](const tbb::blocked_range<int>& rows) {
-        for (int v = rows.begin(); v < rows.end(); ++v) {
-          float* out = image.ptr<float>(v);
-          for (int u = 0; u < width_; ++u) {
-            const std::size_t idx = static_cast<std::size_t>(v) * width_ + u;
-            const float fp = footprint_[idx];
-            if (fp <= 0.0f) continue;
-            float sum = 0.0f;
-            int n = 0;
-            for (int s = 0; s < per_pixel; ++s) {
-              const Sample& b = bearings_[idx * per_pixel + s];
-              if (b.x == 0.f && b.y == 0.f && b.z == 0.f) continue;
-              const Vec3 d_W = R_W_C * Vec3(b.x, b.y, b.z);  // unit: the table holds unit bearings
-              sum += world.radiance(o_W, d_W, fp, t_s);
-              ++n;
-            }
-            out[u] = n > 0 ? sum / n : 0.0f;
-          }
-        }
-      });
+  for (int u = 0; u < width_; ++u) {
+    const std::size_t idx = static_cast<std::size_t>(v) * width_ + u;
+    const float fp = footprint_[idx];
+    if (fp <= 0.0f) continue;
+    float sum = 0.0f;
+    int n = 0;
+    for (int s = 0; s < per_pixel; ++s) {
+      const Sample& b = bearings_[idx * per_pixel + s];
+      if (b.x == 0.f && b.y == 0.f && b.z == 0.f) continue;
+      const Vec3 d_W = R_W_C * Vec3(b.x, b.y, b.z);  // unit: the table holds unit bearings
+      sum += world.radiance(o_W, d_W, fp, t_s);
+      ++n;
+    }
+    out[u] = n > 0 ? sum / n : 0.0f;
+  }
+}
+
+cv::Mat Renderer::renderRadiance(const VineyardWorld& world, const SE3& T_W_C, double t_s) const {
+  cv::Mat image(height_, width_, CV_32F, cv::Scalar(0.0f));
+  tbb::parallel_for(tbb::blocked_range<int>(0, height_, 4),
+                    [&](const tbb::blocked_range<int>& rows) {
+                      for (int v = rows.begin(); v < rows.end(); ++v)
+                        renderRow(world, v, T_W_C, t_s, image.ptr<float>(v));
+                    });
   return image;
+}
+
+cv::Mat Renderer::renderRadiance(const VineyardWorld& world, const std::vector<SE3>& T_W_C_rows,
+                                 const std::vector<double>& t_rows) const {
+  if (static_cast<int>(T_W_C_rows.size()) != height_ || static_cast<int>(t_rows.size()) != height_)
+    throw std::invalid_argument("Renderer::renderRadiance: one pose and time per row expected");
+  cv::Mat image(height_, width_, CV_32F, cv::Scalar(0.0f));
+  tbb::parallel_for(tbb::blocked_range<int>(0, height_, 4),
+                    [&](const tbb::blocked_range<int>& rows) {
+                      for (int v = rows.begin(); v < rows.end(); ++v)
+                        renderRow(world, v, T_W_C_rows[v], t_rows[v], image.ptr<float>(v));
+                    });
+  return image;
+}
+
+double Renderer::meanRadiance(const VineyardWorld& world, const SE3& T_W_C, double t_s,
+                              int stride) const {
+  const int per_pixel = samples_ * samples_;
+  double sum = 0.0;
+  int n = 0;
+  for (int v = stride / 2; v < height_; v += stride)
+    for (int u = stride / 2; u < width_; u += stride) {
+      const std::size_t idx = static_cast<std::size_t>(v) * width_ + u;
+      const float fp = footprint_[idx];
+      const Sample& b = bearings_[idx * per_pixel];
+      if (fp <= 0.0f || (b.x == 0.f && b.y == 0.f && b.z == 0.f)) continue;
+      sum += world.radiance(T_W_C.translation(), T_W_C.linear() * Vec3(b.x, b.y, b.z), fp, t_s);
+      ++n;
+    }
+  return n > 0 ? sum / n : 0.0;
 }
 
 }  // namespace ovo::sim

@@ -118,6 +118,16 @@ Scenario readScenario(const Config& c) {
       c.getInRange("world.backdrop_distance_m", dw.backdrop_distance_m, 20.0, 5000.0);
   w.sun_azimuth_deg = c.getInRange("world.sun_azimuth_deg", dw.sun_azimuth_deg, -360.0, 360.0);
   w.sun_elevation_deg = c.getInRange("world.sun_elevation_deg", dw.sun_elevation_deg, 5.0, 90.0);
+  w.ground_roughness_m = c.getInRange("world.ground_roughness_m", dw.ground_roughness_m, 0.0, 0.5);
+  w.ground_wavelength_m =
+      c.getInRange("world.ground_wavelength_m", dw.ground_wavelength_m, 0.2, 100.0);
+  if (w.ground_roughness_m > 0.05 * w.ground_wavelength_m)
+    fail(
+        "{}: world.ground_roughness_m ({} m) must be at most 5 % of world.ground_wavelength_m "
+        "({} m): steeper bumps are no ground a wheeled robot drives on",
+        c.location("world.ground_roughness_m"), w.ground_roughness_m, w.ground_wavelength_m);
+  w.wind_amplitude_m = c.getInRange("world.wind_amplitude_m", dw.wind_amplitude_m, 0.0, 0.5);
+  w.wind_period_s = c.getInRange("world.wind_period_s", dw.wind_period_s, 0.1, 100.0);
 
   TrajectoryOptions& t = s.trajectory;
   const TrajectoryOptions dt;
@@ -168,6 +178,18 @@ Scenario readScenario(const Config& c) {
   cam.rate_hz = c.getInRange("camera.rate_hz", dc.rate_hz, 0.1, 1000.0);
   cam.pixel_sigma = c.getInRange("camera.pixel_sigma", dc.pixel_sigma, 0.0, 100.0);
   cam.mount = readMount(c, "camera.mount", dc.mount);
+  cam.time_offset_s = c.getInRange("camera.time_offset_s", dc.time_offset_s, -0.5, 0.5);
+  cam.rolling_shutter_s = c.getInRange("camera.rolling_shutter_s", dc.rolling_shutter_s, 0.0, 1.0);
+  if (cam.rolling_shutter_s >= 1.0 / cam.rate_hz)
+    fail("{}: camera.rolling_shutter_s ({} s) must be shorter than the frame period ({} s)",
+         c.location("camera.rolling_shutter_s"), cam.rolling_shutter_s, 1.0 / cam.rate_hz);
+  cam.frame_drop_probability =
+      c.getInRange("camera.frame_drop_probability", dc.frame_drop_probability, 0.0, 0.9);
+  cam.auto_exposure = c.get<bool>("camera.auto_exposure", dc.auto_exposure);
+  cam.auto_exposure_step =
+      c.getInRange("camera.auto_exposure_step", dc.auto_exposure_step, 0.01, 1.0);
+  cam.auto_exposure_rate_hz =
+      c.getInRange("camera.auto_exposure_rate_hz", dc.auto_exposure_rate_hz, 0.01, 1000.0);
 
   s.render.supersample = c.getIntInRange("render.supersample", s.render.supersample, 1, 8);
   s.render.footprint_scale =
@@ -202,6 +224,11 @@ Scenario readScenario(const Config& c) {
       c.getInRange("imu.accel_bias_random_walk", dg.accel_bias_random_walk, 0.0, 10.0);
   g.accel_initial_bias = c.getInRange("imu.accel_initial_bias", dg.accel_initial_bias, 0.0, 10.0);
   g.noise = c.get<bool>("imu.noise", dg.noise);
+  // Truncated at 3 sigma: at most 0.3 periods, so the stamps stay in order.
+  g.time_jitter_s = c.getInRange("imu.time_jitter_s", dg.time_jitter_s, 0.0, 1.0);
+  if (g.time_jitter_s > 0.1 / g.rate_hz)
+    fail("{}: imu.time_jitter_s ({} s) must be at most a tenth of the sample period ({} s)",
+         c.location("imu.time_jitter_s"), g.time_jitter_s, 1.0 / g.rate_hz);
 
   LidarOptions& l = s.lidar;
   const LidarOptions dl;
@@ -222,6 +249,19 @@ Scenario readScenario(const Config& c) {
       c.getInRange("lidar.dropout_probability", dl.dropout_probability, 0.0, 1.0);
   l.noise = c.get<bool>("lidar.noise", dl.noise);
   l.mount = readMount(c, "lidar.mount", dl.mount);
+  l.sweep = c.get<bool>("lidar.sweep", dl.sweep);
+  l.scan_time_s = c.getInRange("lidar.scan_time_s", dl.scan_time_s, 0.0, 1000.0);
+  if (l.scan_time_s > 0.0 && !l.sweep)
+    fail("{}: lidar.scan_time_s is given but lidar.sweep is false (instantaneous scans)",
+         c.location("lidar.scan_time_s"));
+  if (l.scan_time_s > 1.0 / l.rate_hz * (1.0 + 1e-9))
+    fail(
+        "{}: lidar.scan_time_s ({} s) must be at most the scan period 1 / lidar.rate_hz ({} s): "
+        "a mirror turn cannot outlast its scan",
+        c.location("lidar.scan_time_s"), l.scan_time_s, 1.0 / l.rate_hz);
+
+  s.rig.camera_time_offset_s =
+      c.getInRange("rig.camera_time_offset_s", s.rig.camera_time_offset_s, -0.5, 0.5);
 
   const double ratio = cam.rate_hz / l.rate_hz;
   if (std::abs(ratio - std::round(ratio)) > 1e-9 || ratio < 1.0)
@@ -266,6 +306,16 @@ std::string scenarioYaml(const Scenario& s) {
       w.post_radius_m, w.post_height_m, fmt::join(w.wire_heights_m, ", "), w.wire_radius_m,
       w.grass_width_m, b(w.backdrop), w.backdrop_distance_m, w.sun_azimuth_deg,
       w.sun_elevation_deg);
+  // The realities added later are written only when on, so that the scenarios that existed
+  // before them keep writing the same bytes.
+  const WorldOptions dw;
+  if (w.ground_roughness_m != dw.ground_roughness_m ||
+      w.ground_wavelength_m != dw.ground_wavelength_m)
+    y += fmt::format("  ground_roughness_m: {}\n  ground_wavelength_m: {}\n", w.ground_roughness_m,
+                     w.ground_wavelength_m);
+  if (w.wind_amplitude_m != dw.wind_amplitude_m || w.wind_period_s != dw.wind_period_s)
+    y += fmt::format("  wind_amplitude_m: {}\n  wind_period_s: {}\n", w.wind_amplitude_m,
+                     w.wind_period_s);
   y += fmt::format(
       "trajectory:\n  kind: {}\n  start_hold_s: {}\n  end_hold_s: {}\n  body_height_m: {}\n"
       "  first_interrow: {}\n  passes: {}\n  first_pass_m: {}\n  last_pass_m: {}\n  "
@@ -286,6 +336,17 @@ std::string scenarioYaml(const Scenario& s) {
       "  rate_hz: {}\n  pixel_sigma: {}\n  mount: {}\n",
       c.model, c.calibration.string(), c.pinhole_width, c.pinhole_height, c.pinhole_hfov_deg,
       c.rate_hz, c.pixel_sigma, mount(c.mount));
+  const CameraOptions dc;
+  if (c.time_offset_s != dc.time_offset_s)
+    y += fmt::format("  time_offset_s: {}\n", c.time_offset_s);
+  if (c.rolling_shutter_s != dc.rolling_shutter_s)
+    y += fmt::format("  rolling_shutter_s: {}\n", c.rolling_shutter_s);
+  if (c.frame_drop_probability != dc.frame_drop_probability)
+    y += fmt::format("  frame_drop_probability: {}\n", c.frame_drop_probability);
+  if (c.auto_exposure != dc.auto_exposure || c.auto_exposure_step != dc.auto_exposure_step ||
+      c.auto_exposure_rate_hz != dc.auto_exposure_rate_hz)
+    y += fmt::format("  auto_exposure: {}\n  auto_exposure_step: {}\n  auto_exposure_rate_hz: {}\n",
+                     b(c.auto_exposure), c.auto_exposure_step, c.auto_exposure_rate_hz);
   y += fmt::format("render:\n  supersample: {}\n  footprint_scale: {}\n", s.render.supersample,
                    s.render.footprint_scale);
   y += fmt::format(
@@ -301,6 +362,8 @@ std::string scenarioYaml(const Scenario& s) {
       "  accel_initial_bias: {}\n  noise: {}\n",
       g.rate_hz, g.gyro_noise_density, g.gyro_bias_random_walk, g.gyro_initial_bias_dps,
       g.accel_noise_density, g.accel_bias_random_walk, g.accel_initial_bias, b(g.noise));
+  if (g.time_jitter_s != ImuOptions{}.time_jitter_s)
+    y += fmt::format("  time_jitter_s: {}\n", g.time_jitter_s);
   y += fmt::format(
       "lidar:\n  rate_hz: {}\n  angle_min_deg: {}\n  angle_max_deg: {}\n  angle_increment_deg: {}\n"
       "  range_min_m: {}\n  range_max_m: {}\n  range_sigma_m: {}\n  dropout_probability: {}\n  "
@@ -308,6 +371,11 @@ std::string scenarioYaml(const Scenario& s) {
       "  mount: {}\n",
       l.rate_hz, l.angle_min_deg, l.angle_max_deg, l.angle_increment_deg, l.range_min_m,
       l.range_max_m, l.range_sigma_m, l.dropout_probability, b(l.noise), mount(l.mount));
+  const LidarOptions dl;
+  if (l.sweep != dl.sweep || l.scan_time_s != dl.scan_time_s)
+    y += fmt::format("  sweep: {}\n  scan_time_s: {}\n", b(l.sweep), l.scan_time_s);
+  if (s.rig.camera_time_offset_s != RigOptions{}.camera_time_offset_s)
+    y += fmt::format("rig:\n  camera_time_offset_s: {}\n", s.rig.camera_time_offset_s);
   return y;
 }
 

@@ -44,6 +44,16 @@ struct WorldOptions {
   double backdrop_distance_m = 150.0;
   double sun_azimuth_deg = 35.0;  // from +x towards +y
   double sun_elevation_deg = 45.0;
+  // Uneven ground (0: the terrain is the exact plane of grade_pct and side_tilt_pct): a smooth
+  // random height field (sum of random-phase waves, height std ground_roughness_m, wavelengths
+  // around ground_wavelength_m) added vertically to the plane over the field and its headlands.
+  // The robot drives on it (height, roll and pitch from the local normal); the rows stand on it.
+  double ground_roughness_m = 0.0;
+  double ground_wavelength_m = 2.0;
+  // Wind (0: still): leaf clusters and shoots sway in the canopy plane by at most
+  // wind_amplitude_m, smoothly, with periods around wind_period_s; trunks, posts, wires stay put.
+  double wind_amplitude_m = 0.0;
+  double wind_period_s = 2.0;
 };
 
 /// The robot's motion plan. The body origin moves on the terrain at body_height_m.
@@ -94,6 +104,13 @@ struct CameraOptions {
   double rate_hz = 20.0;
   double pixel_sigma = 0.5;  // written to rig.yaml for estimators (pixels)
   MountOptions mount{0.35, 0.0, 0.7, 0.0, 12.0, 0.0};
+  // Sensor realities, each off by default:
+  double time_offset_s = 0.0;           // image stamp = true (gyro-clock) time + this
+  double rolling_shutter_s = 0.0;       // rows read out top to bottom over this time (0: global)
+  double frame_drop_probability = 0.0;  // chance that a frame is missing from the dataset
+  bool auto_exposure = false;           // steps the gain when the view brightens or darkens
+  double auto_exposure_step = 0.1;      // relative gain change of one step
+  double auto_exposure_rate_hz = 2.0;   // at most this many steps a second
 };
 
 /// Ray-caster settings.
@@ -129,10 +146,13 @@ struct ImuOptions {
   double accel_bias_random_walk = 3.0e-4;  // m/s^3/sqrt(Hz)
   double accel_initial_bias = 0.05;        // std of the initial bias per axis, m/s^2
   bool noise = true;                       // false: exact rates and specific force, zero bias
+  double time_jitter_s = 0.0;  // std of the stamps' jitter (samples still at the true times)
 };
 
-/// Planar LiDAR. Scans are instantaneous (no motion skew) and stamped on every
-/// (camera rate / rate_hz)-th camera frame, so LiDAR and camera stamps coincide exactly.
+/// Planar LiDAR. Scans are stamped on the true time of every (camera rate / rate_hz)-th camera
+/// frame (so LiDAR and camera stamps coincide when the camera has no time offset). Instantaneous
+/// unless `sweep`: then beam i is taken at the stamp + i * scan_time_s * angle_increment / 360 deg
+/// (a mirror turning once per scan_time_s, as ROS LaserScan's time_increment and scan_time).
 struct LidarOptions {
   double rate_hz = 10.0;  // must divide the camera rate
   double angle_min_deg = -135.0;
@@ -144,6 +164,20 @@ struct LidarOptions {
   double dropout_probability = 0.02;  // a beam returns nothing
   bool noise = true;                  // false: exact ranges, no dropouts
   MountOptions mount{0.45, 0.0, 0.45, 0.0, 8.0, 0.0};
+  bool sweep = false;        // beams taken one after the other over the mirror's turn
+  double scan_time_s = 0.0;  // one turn of the mirror (s); 0 = one scan period, 1 / rate_hz
+  /// Time between beams (s): 0 unless sweep.
+  double timeIncrementS() const {
+    if (!sweep) return 0.0;
+    const double turn = scan_time_s > 0.0 ? scan_time_s : 1.0 / rate_hz;
+    return turn * angle_increment_deg / 360.0;
+  }
+};
+
+/// What the simulator writes into the dataset's rig.yaml besides the truth: the values an
+/// estimator starts from (a user's guess, not the simulator's truth).
+struct RigOptions {
+  double camera_time_offset_s = 0.0;  // rig.yaml camera.time_offset_s (the estimator's prior)
 };
 
 /// Everything one simulated sequence needs.
@@ -160,6 +194,7 @@ struct Scenario {
   NuisanceOptions nuisance;
   ImuOptions imu;
   LidarOptions lidar;
+  RigOptions rig;
 };
 
 /// Reads a scenario; every key is optional (defaults above) and unknown keys are errors

@@ -3,6 +3,7 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
+#include <algorithm>
 #include <cmath>
 
 #include "camera/calib_io.hpp"
@@ -72,6 +73,51 @@ void Simulation::build() {
   }
   world_->setWalkers(std::move(walkers));
   renderer_ = std::make_unique<Renderer>(camera_, s.render);
+  time_offset_ns_ = fromSeconds(s.camera.time_offset_s);
+  if (s.camera.auto_exposure) computeAutoExposure();
+}
+
+void Simulation::computeAutoExposure() {
+  // The meter: the mean radiance of every 16th pixel across and down (each frame's on its own,
+  // in parallel), times the light's gain and the auto-exposure's gain. The controller steps the
+  // gain for the next frame when the metered brightness is off the first frame's by more than
+  // three quarters of a step, at most auto_exposure_rate_hz times a second.
+  const CameraOptions& c = scenario_.camera;
+  std::vector<double> meter(frames_);
+  tbb::parallel_for(0, frames_, [&](int k) {
+    const double t = frameTime(k);
+    meter[k] =
+        exposureGain(t) * renderer_->meanRadiance(*world_, trajectory_.T_W_B(t) * T_B_C_, t, 16);
+  });
+  auto_exposure_.assign(frames_, 1.0);
+  const double deadband = 0.75 * std::log1p(c.auto_exposure_step);
+  const double target = std::max(frames_ > 0 ? meter[0] : 1.0, 1e-6);
+  double gain = 1.0, last_step_s = -1e30;
+  for (int k = 0; k < frames_; ++k) {
+    auto_exposure_[k] = gain;
+    const double error = std::log(std::max(meter[k] * gain, 1e-9) / target);
+    const double t = frameTime(k);
+    if (std::abs(error) > deadband && t - last_step_s >= 1.0 / c.auto_exposure_rate_hz - 1e-9) {
+      gain =
+          error > 0.0 ? gain / (1.0 + c.auto_exposure_step) : gain * (1.0 + c.auto_exposure_step);
+      last_step_s = t;
+    }
+  }
+}
+
+double Simulation::autoExposureGain(int k) const {
+  return auto_exposure_.empty() ? 1.0 : auto_exposure_.at(k);
+}
+
+double Simulation::rowTime(int k, int v) const {
+  return frameTime(k) + scenario_.camera.rolling_shutter_s * v / renderer_->height();
+}
+
+bool Simulation::frameDropped(int k) const {
+  const double p = scenario_.camera.frame_drop_probability;
+  if (p <= 0.0) return false;
+  Rng rng(subSeed(subSeed(scenario_.seed, 12), static_cast<std::uint64_t>(k)));
+  return rng.uniform() < p;
 }
 
 Timestamp Simulation::frameOffsetNs(int k) const {
@@ -93,18 +139,34 @@ double Simulation::exposureGain(double t) const {
 cv::Mat Simulation::renderFrame(int k) const {
   const NuisanceOptions& n = scenario_.nuisance;
   const double t = frameTime(k);
+  const double readout = scenario_.camera.rolling_shutter_s;
+  // The frame's view at time ti: at once, or row v at ti + v / rows * readout (rolling shutter).
+  const auto render = [&](double ti) {
+    if (readout <= 0.0)
+      return renderer_->renderRadiance(*world_, trajectory_.T_W_B(ti) * T_B_C_, ti);
+    const int rows = renderer_->height();
+    std::vector<SE3> poses(rows);
+    std::vector<double> times(rows);
+    for (int v = 0; v < rows; ++v) {
+      times[v] = ti + readout * v / rows;
+      poses[v] = trajectory_.T_W_B(times[v]) * T_B_C_;
+    }
+    return renderer_->renderRadiance(*world_, poses, times);
+  };
   cv::Mat radiance;
   if (n.motion_blur && n.exposure_time_s > 0.0) {
     radiance = cv::Mat::zeros(renderer_->height(), renderer_->width(), CV_32F);
     for (int i = 0; i < n.blur_samples; ++i) {
       const double ti = t + n.exposure_time_s * ((i + 0.5) / n.blur_samples - 0.5);
-      radiance += renderer_->renderRadiance(*world_, trajectory_.T_W_B(ti) * T_B_C_, ti);
+      radiance += render(ti);
     }
     radiance /= n.blur_samples;
   } else {
-    radiance = renderer_->renderRadiance(*world_, trajectory_.T_W_B(t) * T_B_C_, t);
+    radiance = render(t);
   }
-  const float gain = static_cast<float>(255.0 * exposureGain(t));
+  const float gain = auto_exposure_.empty()
+                         ? static_cast<float>(255.0 * exposureGain(t))
+                         : static_cast<float>(255.0 * exposureGain(t) * auto_exposure_[k]);
   cv::Mat out(radiance.rows, radiance.cols, CV_8U);
   const std::uint64_t frame_seed =
       subSeed(scenario_.seed, 1'000'000 + static_cast<std::uint64_t>(k));
@@ -143,25 +205,49 @@ std::vector<LidarScan> Simulation::lidar() const {
   std::vector<double> stamps;
   for (int k = 0; k < frames_; k += every) stamps.push_back(frameTime(k));
   std::vector<LidarScan> scans(stamps.size());
+  const double dt_beam = scenario_.lidar.timeIncrementS();
   tbb::parallel_for(std::size_t{0}, stamps.size(), [&](std::size_t i) {
     const double t = stamps[i];
-    scans[i] = simulateScan(*world_, trajectory_.T_W_B(t) * T_B_L_, t,
-                            frameStamp(static_cast<int>(i) * every), scenario_.lidar,
-                            subSeed(scenario_.seed, 2'000'000 + i));
+    const Timestamp t_ns = frameTrueStamp(static_cast<int>(i) * every);
+    const std::uint64_t seed = subSeed(scenario_.seed, 2'000'000 + i);
+    if (dt_beam > 0.0) {
+      scans[i] = simulateSweptScan(
+          *world_, [&](double tb) { return trajectory_.T_W_B(tb) * T_B_L_; }, t, t_ns, dt_beam,
+          scenario_.lidar, seed);
+    } else {
+      scans[i] =
+          simulateScan(*world_, trajectory_.T_W_B(t) * T_B_L_, t, t_ns, scenario_.lidar, seed);
+    }
   });
   return scans;
 }
 
 ovo::Trajectory Simulation::groundTruth() const {
+  std::vector<Timestamp> stamps;
+  stamps.reserve(2 * frames_);
+  for (int k = 0; k < frames_; ++k) {
+    stamps.push_back(frameTrueStamp(k));
+    if (time_offset_ns_ != 0) stamps.push_back(frameStamp(k));
+  }
+  std::sort(stamps.begin(), stamps.end());
+  stamps.erase(std::unique(stamps.begin(), stamps.end()), stamps.end());
   ovo::Trajectory gt;
-  gt.reserve(frames_);
-  for (int k = 0; k < frames_; ++k) gt.push_back({frameStamp(k), trajectory_.T_W_B(frameTime(k))});
+  gt.reserve(stamps.size());
+  for (Timestamp t_ns : stamps) {
+    const double t = static_cast<double>(t_ns - scenario_.start_time_ns) * 1e-9;
+    gt.push_back({t_ns, trajectory_.T_W_B(t)});
+  }
   return gt;
 }
 
 double Simulation::cameraHeightM() const {
   const Vec3 p_W = (trajectory_.T_W_B(0.0) * T_B_C_).translation();
-  return world_->groundNormal().dot(p_W);  // the terrain plane passes through W's origin
+  if (!world_->heightField())
+    return world_->groundNormal().dot(p_W);  // the terrain plane passes through W's origin
+  // Uneven ground: above the ground's tangent plane below the body.
+  Vec3 ground, normal;
+  trajectory_.groundContact(0.0, &ground, &normal);
+  return normal.dot(p_W - ground);
 }
 
 }  // namespace ovo::sim

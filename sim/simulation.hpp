@@ -2,6 +2,8 @@
 // calls that produce its frames, IMU samples, LiDAR scans and ground truth (the `ovo simulate`
 // command writes them out). Deterministic for a seed: every random draw comes from a stream
 // derived from the scenario seed and the sample's index, so frames may be rendered in any order.
+// Times: frameTime(k) is frame k's true time on the gyro clock (its first row's exposure);
+// frameStamp(k) is what the camera stamps it, offset by camera.time_offset_s.
 #pragma once
 
 #include <memory>
@@ -41,25 +43,39 @@ class Simulation {
   /// Camera frames: k = 0 .. frameCount() - 1 at frameTime(k) seconds from the start.
   int frameCount() const { return frames_; }
   double frameTime(int k) const;
-  Timestamp frameStamp(int k) const { return scenario_.start_time_ns + frameOffsetNs(k); }
+  /// Frame k's true time on the gyro clock (ns).
+  Timestamp frameTrueStamp(int k) const { return scenario_.start_time_ns + frameOffsetNs(k); }
+  /// Frame k's image stamp: the true time plus camera.time_offset_s.
+  Timestamp frameStamp(int k) const { return frameTrueStamp(k) + time_offset_ns_; }
+  /// Time (s from the start) at which row v of frame k is read out: frameTime(k) plus v / rows of
+  /// camera.rolling_shutter_s.
+  double rowTime(int k, int v) const;
+  /// True when frame k is missing from the dataset (camera.frame_drop_probability).
+  bool frameDropped(int k) const;
   /// Length of the sequence (s): the last frame's time.
   double duration() const { return frameTime(std::max(0, frames_ - 1)); }
 
   /// Frame k as 8-bit grey with exposure, noise, blur and people as the scenario says.
   cv::Mat renderFrame(int k) const;
-  /// Relative exposure gain at time t (1 when exposure changes are off).
+  /// Relative exposure gain at time t (1 when exposure changes are off): the light changing.
   double exposureGain(double t_s) const;
+  /// The auto-exposure's gain of frame k (1 when camera.auto_exposure is off): steps of
+  /// camera.auto_exposure_step against the metered brightness of the frames before it.
+  double autoExposureGain(int k) const;
 
   std::vector<ImuSample> imu(std::vector<GyroBiasSample>* true_gyro_bias = nullptr) const;
-  /// Scans on every (camera rate / LiDAR rate)-th frame, stamped exactly like those frames.
+  /// Scans on every (camera rate / LiDAR rate)-th frame, stamped at those frames' true times (the
+  /// first beam's, when swept).
   std::vector<LidarScan> lidar() const;
-  /// T_W_B at every camera frame.
+  /// T_W_B at every camera frame's true time and, when the camera's stamps are offset, at every
+  /// image stamp too (read as a gyro-clock time): an estimate at either time finds its truth.
   ovo::Trajectory groundTruth() const;
   /// Camera centre's height above the terrain at the start (m).
   double cameraHeightM() const;
 
  private:
   void build();
+  void computeAutoExposure();
   Timestamp frameOffsetNs(int k) const;
 
   Scenario scenario_;
@@ -70,6 +86,8 @@ class Simulation {
   SE3 T_B_C_, T_B_L_;
   int frames_ = 0;
   double gain_phase_[3] = {0.0, 0.0, 0.0};
+  Timestamp time_offset_ns_ = 0;
+  std::vector<double> auto_exposure_;  // per frame; empty when off
 };
 
 }  // namespace ovo::sim

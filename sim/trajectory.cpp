@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "sim/height_field.hpp"
 #include "sim/random.hpp"
 #include "sim/world.hpp"
 
@@ -22,6 +23,16 @@ double smoothStep(double x) {
 }
 
 double wrapAngle(double a) { return std::remainder(a, 2.0 * M_PI); }
+
+Mat3 skew(const Vec3& v) {
+  Mat3 m;
+  m << 0.0, -v.z(), v.y(), v.z(), 0.0, -v.x(), -v.y(), v.x(), 0.0;
+  return m;
+}
+
+Vec3 vee(const Mat3& m) {
+  return 0.5 * Vec3(m(2, 1) - m(1, 2), m(0, 2) - m(2, 0), m(1, 0) - m(0, 1));
+}
 
 // One constant command of the unicycle: forward speed, yaw rate, and the row line to follow.
 struct Command {
@@ -78,7 +89,7 @@ class Schedule {
 
 // Terrain-frame coordinates (a, b) of the ground point below world (x, y).
 Vec2 toTerrain(const VineyardWorld& world, double x, double y) {
-  const Vec3 p(x, y, world.groundHeight(x, y));
+  const Vec3 p(x, y, world.planeHeight(x, y));
   return Vec2(p.dot(world.R_W_T().col(0)), p.dot(world.R_W_T().col(1)));
 }
 
@@ -200,7 +211,84 @@ void UniformCubicBSpline::evaluate(double t, Vec6* value, Vec6* d1, Vec6* d2) co
 BodyTrajectory::BodyTrajectory(const Mat3& R_W_T, double body_height_m, UniformCubicBSpline spline)
     : R_W_T_(R_W_T), body_height_m_(body_height_m), spline_(std::move(spline)) {}
 
+BodyTrajectory::BodyTrajectory(const Mat3& R_W_T, double body_height_m, UniformCubicBSpline spline,
+                               std::shared_ptr<const HeightField> field, const Vec2& plane_gradient)
+    : R_W_T_(R_W_T),
+      body_height_m_(body_height_m),
+      spline_(std::move(spline)),
+      field_(std::move(field)),
+      plane_gradient_(plane_gradient) {}
+
+void BodyTrajectory::groundContact(double t_s, Vec3* point_W, Vec3* normal_W) const {
+  Vec6 x;
+  spline_.evaluate(t_s, &x);
+  *point_W = R_W_T_ * Vec3(x[0], x[1], 0.0);
+  *normal_W = R_W_T_.col(2);
+  if (!field_) return;
+  Vec2 g;
+  point_W->z() += field_->height(point_W->x(), point_W->y(), &g);
+  *normal_W = Vec3(-plane_gradient_.x() - g.x(), -plane_gradient_.y() - g.y(), 1.0).normalized();
+}
+
+BodyState BodyTrajectory::roughState(double t_s) const {
+  Vec6 x, dx, ddx;
+  spline_.evaluate(t_s, &x, &dx, &ddx);
+  if (t_s < 0.0 || t_s > duration()) {  // held still outside the spline's range
+    dx.setZero();
+    ddx.setZero();
+  }
+  const double psi = x[3], theta = x[4], phi = x[5];
+  const double dpsi = dx[3], dtheta = dx[4], dphi = dx[5];
+  const Mat3 R_base =
+      R_W_T_ * (Eigen::AngleAxisd(psi, Vec3::UnitZ()) * Eigen::AngleAxisd(theta, Vec3::UnitY()) *
+                Eigen::AngleAxisd(phi, Vec3::UnitX()))
+                   .toRotationMatrix();
+  const double sp = std::sin(phi), cp = std::cos(phi), st = std::sin(theta), ct = std::cos(theta);
+  const Vec3 omega_base(dphi - dpsi * st, dtheta * cp + dpsi * sp * ct,
+                        -dtheta * sp + dpsi * cp * ct);
+  // The plane point below the body and its derivatives; q = its world x, y.
+  const Vec3 P = R_W_T_ * Vec3(x[0], x[1], 0.0);
+  const Vec3 Pd = R_W_T_ * Vec3(dx[0], dx[1], 0.0);
+  const Vec3 Pdd = R_W_T_ * Vec3(ddx[0], ddx[1], 0.0);
+  const Vec2 qd = Pd.head<2>(), qdd = Pdd.head<2>();
+  const HeightSample hs = field_->sample(P.x(), P.y(), qd);
+  // The ground point g = P + h e_z.
+  const Vec3 ez = Vec3::UnitZ();
+  const Vec3 g = P + ez * hs.h;
+  const Vec3 gd = Pd + ez * hs.grad.dot(qd);
+  const Vec3 gdd = Pdd + ez * (qd.dot(hs.hess * qd) + hs.grad.dot(qdd));
+  // The ground normal n = u / |u|, u = (-dz/dx, -dz/dy, 1), and its first two derivatives.
+  const Vec3 u(-plane_gradient_.x() - hs.grad.x(), -plane_gradient_.y() - hs.grad.y(), 1.0);
+  const Vec2 Hqd = hs.hess * qd;
+  const Vec3 ud(-Hqd.x(), -Hqd.y(), 0.0);
+  const Vec2 w = hs.third_uu + hs.hess * qdd;
+  const Vec3 udd(-w.x(), -w.y(), 0.0);
+  const double r = u.norm();
+  const Vec3 n = u / r;
+  const double rd = n.dot(ud);
+  const Vec3 nd = (ud - n * rd) / r;
+  const Vec3 ndd = (udd - nd * rd - n * (nd.dot(ud) + n.dot(udd))) / r - nd * rd / r;
+  // Body origin: body_height + bump along the local normal.
+  const double s = body_height_m_ + x[2], sd = dx[2], sdd = ddx[2];
+  BodyState out;
+  out.T_W_B.translation() = g + n * s;
+  out.v_W = gd + nd * s + n * sd;
+  out.a_W = gdd + ndd * s + 2.0 * nd * sd + n * sdd;
+  // Tilt: the smallest rotation taking the plane's normal n0 onto n (Rodrigues with v = n0 x n,
+  // c = n0 . n: R = I + [v] + [v]^2 / (1 + c)), and its angular velocity from dR/dt R^T.
+  const Vec3 n0 = R_W_T_.col(2);
+  const Mat3 K = skew(n0.cross(n)), Kd = skew(n0.cross(nd));
+  const double c = n0.dot(n), cd = n0.dot(nd);
+  const Mat3 R_tilt = Mat3::Identity() + K + K * K / (1.0 + c);
+  const Mat3 R_tilt_d = Kd + (Kd * K + K * Kd) / (1.0 + c) - K * K * cd / ((1.0 + c) * (1.0 + c));
+  const Vec3 omega_tilt_W = vee(R_tilt_d * R_tilt.transpose());
+  out.T_W_B.linear() = R_tilt * R_base;
+  out.omega_B = R_base.transpose() * (R_tilt.transpose() * omega_tilt_W) + omega_base;
+  return out;
+}
+
 BodyState BodyTrajectory::state(double t_s) const {
+  if (field_) return roughState(t_s);
   Vec6 x, dx, ddx;
   spline_.evaluate(t_s, &x, &dx, &ddx);
   if (t_s < 0.0 || t_s > duration()) {  // held still outside the spline's range
@@ -280,6 +368,10 @@ BodyTrajectory planTrajectory(const TrajectoryOptions& o, const VineyardWorld& w
         o.vibration_sigma_deg * kDeg * level * n_roll;
   }
   // The spline's domain starts at t = 0 with segment 0 (control points 0..3).
+  if (world.heightField())
+    return BodyTrajectory(world.R_W_T(), o.body_height_m,
+                          UniformCubicBSpline(knot, std::move(control)), world.heightField(),
+                          world.planeGradient());
   return BodyTrajectory(world.R_W_T(), o.body_height_m,
                         UniformCubicBSpline(knot, std::move(control)));
 }

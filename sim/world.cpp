@@ -31,7 +31,8 @@ enum TextureId : std::uint32_t {
   kHillTone,
   kShirt,
   kTrack,
-  kField
+  kField,
+  kWind  // four streams from here
 };
 
 }  // namespace
@@ -73,6 +74,78 @@ VineyardWorld::VineyardWorld(const WorldOptions& options, std::uint64_t seed)
   const int posts =
       std::max(1, static_cast<int>(std::round(opt_.row_length_m / opt_.post_spacing_m)));
   for (int k = 0; k <= posts; ++k) post_x_.push_back(opt_.row_length_m * k / posts);
+  if (opt_.ground_roughness_m > 0.0) {
+    // Full amplitude over the rows and the headlands (where the robot drives) and 3 m beyond.
+    const double margin = opt_.headland_m + 3.0;
+    const double y_lo = -0.5 * opt_.row_spacing_m;
+    const double y_hi = (std::max(opt_.num_rows, 1) - 0.5) * opt_.row_spacing_m;
+    const Rect2 plateau{-margin, opt_.row_length_m + margin, y_lo - margin, y_hi + margin};
+    field_ = std::make_shared<const HeightField>(opt_.ground_roughness_m, opt_.ground_wavelength_m,
+                                                 subSeed(seed, 13), plateau);
+    // The field along every leaf layer's line and every row's centre line, tabulated at 1 cm
+    // (linear interpolation: off by less than a hundredth of a millimetre at these wavelengths),
+    // since the ray caster asks for it many times a ray.
+    const int nl = opt_.canopy_layers;
+    row_ground_x0_ = -10.0;
+    const int n = static_cast<int>(std::ceil((opt_.row_length_m + 20.0) / kRowGroundStep)) + 1;
+    row_ground_.assign(static_cast<std::size_t>(opt_.num_rows) * (nl + 1), {});
+    for (int row = 0; row < opt_.num_rows; ++row)
+      for (int k = 0; k <= nl; ++k) {
+        std::vector<double>& table = row_ground_[static_cast<std::size_t>(row) * (nl + 1) + k];
+        const double y = rowLineY(row, k);
+        table.resize(n);
+        for (int i = 0; i < n; ++i)
+          table[i] = field_->height(row_ground_x0_ + i * kRowGroundStep, y);
+      }
+  }
+}
+
+double VineyardWorld::rowLineY(int row, int k) const {
+  const int nl = opt_.canopy_layers;
+  if (k == nl || nl == 1) return rowY(row);
+  return rowY(row) + opt_.canopy_width_m * (static_cast<double>(k) / (nl - 1) - 0.5);
+}
+
+double VineyardWorld::rowGroundHeight(int row, int k, double x) const {
+  const double y = rowLineY(row, k);
+  if (!field_) return groundHeight(x, y);
+  const std::vector<double>& table =
+      row_ground_[static_cast<std::size_t>(row) * (opt_.canopy_layers + 1) + k];
+  const double u = (x - row_ground_x0_) / kRowGroundStep;
+  if (!(u >= 0.0 && u < static_cast<double>(table.size() - 1))) return groundHeight(x, y);
+  const auto i = static_cast<std::size_t>(u);
+  const double f = u - static_cast<double>(i);
+  return planeHeight(x, y) + table[i] + f * (table[i + 1] - table[i]);
+}
+
+Vec3 VineyardWorld::groundNormalAt(double x, double y) const {
+  Vec2 g = Vec2::Zero();
+  if (field_) field_->height(x, y, &g);
+  return Vec3(-gx_ - g.x(), -gy_ - g.y(), 1.0).normalized();
+}
+
+Vec2 VineyardWorld::leafSway(int row, int layer, double x, double h, double t_s) const {
+  const WorldOptions& o = opt_;
+  if (o.wind_amplitude_m <= 0.0) return Vec2::Zero();
+  // Each point's two sway components are two sines in time whose phases vary smoothly over the
+  // canopy (clusters a metre apart sway independently); their amplitude weights add up to 1, so
+  // each component stays within A / sqrt(2) and the displacement within A. Shoots at the top
+  // sway fully, leaves at the cordon half as much.
+  const std::uint32_t ws = tex_seed_ + kWind + 1009u * static_cast<std::uint32_t>(row) +
+                           131u * static_cast<std::uint32_t>(layer);
+  constexpr double kPhaseScale = 3.0 * M_PI;  // phase range across the canopy
+  const double u = x / 1.0, v = h / 1.0;      // phase field wavelength: 1 m
+  const double w = 2.0 * M_PI / o.wind_period_s;
+  const double p1 = kPhaseScale * valueNoise(u, v, ws);
+  const double p2 = kPhaseScale * valueNoise(u, v, ws + 1);
+  const double p3 = kPhaseScale * valueNoise(u, v, ws + 2);
+  const double p4 = kPhaseScale * valueNoise(u, v, ws + 3);
+  const double sx = 0.6 * std::sin(w * t_s + p1) + 0.4 * std::sin(1.73 * w * t_s + p2);
+  const double sz = 0.6 * std::sin(0.87 * w * t_s + p3) + 0.4 * std::sin(2.11 * w * t_s + p4);
+  const double rel =
+      std::clamp((h - o.canopy_bottom_m) / (o.canopy_top_m - o.canopy_bottom_m), 0.0, 1.0);
+  const double a = o.wind_amplitude_m * M_SQRT1_2 * (0.5 + 0.5 * rel);
+  return Vec2(a * sx, a * sz);
 }
 
 // --- textures
@@ -171,9 +244,14 @@ float VineyardWorld::backdropTone(double arc_m, double z, double fp) const {
   return 0.42f + 1.3f * (trees - 0.5f);
 }
 
-float VineyardWorld::layerCoverage(int row, int layer, double x, double h, double fp,
+float VineyardWorld::layerCoverage(int row, int layer, double x, double h, double fp, double t_s,
                                    float* tone) const {
   const WorldOptions& o = opt_;
+  if (o.wind_amplitude_m > 0.0) {  // the layer's content seen displaced by the sway
+    const Vec2 sway = leafSway(row, layer, x, h, t_s);
+    x -= sway.x();
+    h -= sway.y();
+  }
   const double L = o.row_length_m;
   if (x < -0.3 || x > L + 0.3) return 0.0f;
   const std::uint32_t rs = tex_seed_ + 1009u * static_cast<std::uint32_t>(row);
@@ -278,19 +356,21 @@ void VineyardWorld::addVerticalCylinder(const Vec3& o, const Vec3& d, double fp,
 }
 
 void VineyardWorld::collectRow(int row, const Vec3& o, const Vec3& d, double fp, double t0,
-                               double t1, double t_limit, HitList* out) const {
+                               double t1, double t_limit, double t_s, HitList* out) const {
   const WorldOptions& w = opt_;
   const double y_row = rowY(row);
   const double dy = std::abs(d.y()) < 1e-12 ? 1e-12 : d.y();
   const double xa = o.x() + t0 * d.x(), xb = o.x() + t1 * d.x();
   // Height above the ground is linear along the ray: its range over the slab culls whole parts.
-  const double ha = o.z() + t0 * d.z() - groundHeight(xa, y_row);
-  const double hb = o.z() + t1 * d.z() - groundHeight(xb, y_row);
-  const double margin = 0.05 + t1 * fp;
+  const int nl = w.canopy_layers;
+  const double ha = o.z() + t0 * d.z() - rowGroundHeight(row, nl, xa);
+  const double hb = o.z() + t1 * d.z() - rowGroundHeight(row, nl, xb);
+  // Uneven ground: the height above it may differ from the ends' by up to twice its bound.
+  const double margin = field_ ? 0.05 + t1 * fp + 2.0 * field_->bound() : 0.05 + t1 * fp;
   const double h_min = std::min(ha, hb) - margin, h_max = std::max(ha, hb) + margin;
   // Leaf layers, nearest first.
-  const int nl = w.canopy_layers;
-  if (h_max > w.canopy_bottom_m - 0.2 && h_min < w.canopy_top_m + 0.4) {
+  const double sway = w.wind_amplitude_m;  // leaves may sway this far beyond the canopy's extent
+  if (h_max > w.canopy_bottom_m - 0.2 - sway && h_min < w.canopy_top_m + 0.4 + sway) {
     for (int i = 0; i < nl; ++i) {
       const int k = dy > 0 ? i : nl - 1 - i;
       const double y_k =
@@ -298,10 +378,10 @@ void VineyardWorld::collectRow(int row, const Vec3& o, const Vec3& d, double fp,
       const double t = (y_k - o.y()) / dy;
       if (t <= 0.0 || t >= std::min(t_limit, out->t_opaque)) continue;
       const double x = o.x() + t * d.x();
-      const double h = o.z() + t * d.z() - groundHeight(x, y_k);
+      const double h = o.z() + t * d.z() - rowGroundHeight(row, k, x);
       const double cos_inc = std::max(std::abs(d.y()), 0.2);
       float tone = 0.0f;
-      const float alpha = layerCoverage(row, k, x, h, t * fp / cos_inc, &tone);
+      const float alpha = layerCoverage(row, k, x, h, t * fp / cos_inc, t_s, &tone);
       if (alpha > 0.0f) {
         const float depth =
             nl > 1 ? static_cast<float>(i) / (nl - 1) : 0.0f;  // 0 = facing the viewer
@@ -343,7 +423,7 @@ void VineyardWorld::collectRow(int row, const Vec3& o, const Vec3& d, double fp,
       for (double hw : w.wire_heights_m) {
         if (hw < h_min || hw > h_max) continue;
         const double w0x = o.x(), w0y = o.y() - y_row,
-                     w0z = o.z() - (groundHeight(0.0, y_row) + hw);
+                     w0z = o.z() - (planeHeight(0.0, y_row) + hw);  // wires follow the plane
         const double dd = d.x() * w0x + d.y() * w0y + d.z() * w0z;
         const double e = ux * w0x + uz * w0z;
         const double t = (b * e - dd) / den;
@@ -382,7 +462,7 @@ void VineyardWorld::collect(const Vec3& o, const Vec3& d, double fp, double t_s,
       if (ta >= tb) continue;
       const double xa = o.x() + ta * d.x(), xb = o.x() + tb * d.x();
       if (std::max(xa, xb) < -0.6 || std::min(xa, xb) > w.row_length_m + 0.6) continue;
-      collectRow(row, o, d, fp, ta, tb, t_limit, out);
+      collectRow(row, o, d, fp, ta, tb, t_limit, t_s, out);
       if (out->transmittance < 2e-3f) break;
     }
   }
@@ -420,11 +500,15 @@ void VineyardWorld::collect(const Vec3& o, const Vec3& d, double fp, double t_s,
 float VineyardWorld::radiance(const Vec3& o, const Vec3& d, double fp, double t_s) const {
   // Ground plane z = gx x + gy y, with its horizon filtered over the pixel's angular width.
   const double denom = d.z() - gx_ * d.x() - gy_ * d.y();
-  const double num = groundHeight(o.x(), o.y()) - o.z();  // < 0 above ground
-  const double sin_down = -d.dot(normal_W_);              // > 0: towards the ground
+  const double num = planeHeight(o.x(), o.y()) - o.z();  // < 0 above the plane
+  const double sin_down = -d.dot(normal_W_);             // > 0: towards the ground
   const float ground_cover = clamp01(static_cast<float>(sin_down / fp + 0.5));
   double t_ground = kFar;
-  if (ground_cover > 0.0f && denom < -1e-12) t_ground = std::min(kFar, num / denom);
+  if (field_) {
+    if (ground_cover > 0.0f) t_ground = roughGroundHit(o, d, kFar);
+  } else if (ground_cover > 0.0f && denom < -1e-12) {
+    t_ground = std::min(kFar, num / denom);
+  }
 
   // Rows, people and markers in front of the ground; the ground, the hills and the sky are shaded
   // only when something of them shows through.
@@ -477,10 +561,16 @@ std::optional<double> VineyardWorld::firstOpaqueHit(const Vec3& o, const Vec3& d
                                                     double max_range_m, double t_s) const {
   constexpr double kBeamRad = 2e-4;  // a sharp beam: leaf edges at full detail
   const double denom = d.z() - gx_ * d.x() - gy_ * d.y();
-  const double num = groundHeight(o.x(), o.y()) - o.z();
+  const double num = planeHeight(o.x(), o.y()) - o.z();
   double t_best = max_range_m;
   bool hit = false;
-  if (denom < -1e-12 && num < 0.0) {
+  if (field_) {
+    const double t = roughGroundHit(o, d, max_range_m);
+    if (t < t_best) {
+      t_best = t;
+      hit = true;
+    }
+  } else if (denom < -1e-12 && num < 0.0) {
     const double t = num / denom;
     if (t < t_best) {
       t_best = t;
@@ -497,6 +587,107 @@ std::optional<double> VineyardWorld::firstOpaqueHit(const Vec3& o, const Vec3& d
   }
   if (!hit) return std::nullopt;
   return t_best;
+}
+
+}  // namespace ovo::sim
+
+namespace ovo::sim {
+
+double VineyardWorld::roughGroundHit(const Vec3& o, const Vec3& d, double t_max) const {
+  const HeightField& field = *field_;
+  // The ray's height above the plane is l0 + t dl; the ground is at that height h(x(t), y(t)).
+  const double l0 = o.z() - planeHeight(o.x(), o.y());
+  const double dl = d.z() - gx_ * d.x() - gy_ * d.y();
+  const double bound = field.bound();
+  t_max = std::min(t_max, kFar);
+  const auto accept = [&](double t) { return t >= 0.0 && t < t_max ? t : kFar; };
+  // Where the ray meets the plane: the ground outside the field's support.
+  const double t_plane = dl < -1e-15 && l0 > 0.0 ? -l0 / dl : kFar;
+  // The slab |height above the plane| <= bound, where the field's surface lies.
+  double a = 0.0, b = t_max;
+  bool a_entry = false, b_exit = false;  // a (b) is where the ray enters (leaves) the slab
+  if (dl < -1e-15) {
+    if ((bound - l0) / dl > a) {
+      a = (bound - l0) / dl;
+      a_entry = true;
+    }
+    if ((-bound - l0) / dl < b) {
+      b = (-bound - l0) / dl;
+      b_exit = true;
+    }
+  } else if (l0 > bound) {
+    return kFar;  // above the slab and not descending
+  } else if (dl > 1e-15) {
+    b = std::min(b, (bound - l0) / dl);
+  }
+  double s0 = 0.0, s1 = 0.0;
+  if (!field.supportInterval(o, d, &s0, &s1)) return accept(t_plane);
+  if (t_plane < s0) return accept(t_plane);  // the plane before the field begins
+  if (s0 > a) {
+    a = s0;
+    a_entry = false;
+  }
+  if (s1 < b) {
+    b = s1;
+    b_exit = false;
+  }
+  // f(t) = height above the ground along the ray; f' from the field's gradient.
+  const auto f = [&](double t, double* df) {
+    Vec2 g;
+    const double h = field.height(o.x() + t * d.x(), o.y() + t * d.y(), &g);
+    if (df) *df = dl - g.x() * d.x() - g.y() * d.y();
+    return l0 + t * dl - h;
+  };
+  // The first sign change in [lo, hi] (f(lo) > 0 >= f(hi)) by Newton's method kept inside it.
+  const auto refine = [&](double lo, double hi, double t) {
+    for (int it = 0; it < 50; ++it) {
+      double df = 0.0;
+      const double ft = f(t, &df);
+      if (std::abs(ft) < 1e-9) break;
+      if (ft <= 0.0) {
+        hi = t;
+      } else {
+        lo = t;
+      }
+      double next = df != 0.0 ? t - ft / df : 0.5 * (lo + hi);
+      if (!(next > lo && next < hi)) next = 0.5 * (lo + hi);
+      const bool done = std::abs(next - t) < 1e-7 || hi - lo < 1e-7;
+      t = next;
+      if (done) break;
+    }
+    return t;
+  };
+  if (a <= b) {
+    const double horizontal = std::hypot(d.x(), d.y());
+    // Above the ground where the ray enters the slab; elsewhere it may start under it.
+    if (!a_entry && f(a, nullptr) <= 0.0) return accept(a);
+    if (-dl > field.maxSlope() * horizontal) {
+      // Steeper than any slope of the field: f falls all the way, one crossing at most (and
+      // surely one when the ray leaves the slab below).
+      if (!b_exit && f(b, nullptr) > 0.0) return t_plane > s1 ? accept(t_plane) : kFar;
+      return accept(refine(a, b, std::clamp(t_plane, a, b)));
+    }
+    // Grazing: march in steps of an eighth of the shortest wavelength over the ground (the waves'
+    // phases advanced by rotation), then refine the first sign change.
+    const double step = field.minWavelength() / 8.0 / std::max(horizontal, 1e-9);
+    HeightMarch march(field, o, d, a, step);
+    double t0 = a;
+    while (t0 < b) {
+      double t1, f1;
+      if (t0 + step < b) {
+        march.step();
+        t1 = march.t();
+        f1 = l0 + t1 * dl - march.height();
+      } else {
+        t1 = b;
+        f1 = f(b, nullptr);
+      }
+      if (f1 <= 0.0) return accept(refine(t0, t1, t1));
+      t0 = t1;
+    }
+  }
+  // No crossing over the field: the plane beyond it.
+  return t_plane > s1 ? accept(t_plane) : kFar;
 }
 
 }  // namespace ovo::sim

@@ -1,6 +1,7 @@
 // The synthetic vineyard that the camera and the LiDAR see: a planar sloped terrain, rows of vines
 // (see-through leaf layers, trunks, posts, wires), headland track, meadow, distant hills and a
-// cloudy sky, plus optional walking people and test markers. Rays are intersected analytically and
+// cloudy sky, plus optional walking people and test markers; optionally uneven ground (a height
+// field on the plane) and leaves swaying in the wind. Rays are intersected analytically and
 // shaded with band-limited procedural textures; a pixel's angular footprint drives analytic
 // anti-aliasing (box-filtered silhouettes, alpha-composited coverage, texture octaves faded below
 // two pixels). World W: z up (gravity -z); row i runs along +x at y = i * row_spacing_m, x in [0,
@@ -9,10 +10,12 @@
 
 #include <algorithm>
 #include <cstdint>
+#include <memory>
 #include <optional>
 #include <vector>
 
 #include "common/types.hpp"
+#include "sim/height_field.hpp"
 #include "sim/scenario.hpp"
 
 namespace ovo::sim {
@@ -37,10 +40,23 @@ class VineyardWorld {
   VineyardWorld(const WorldOptions& options, std::uint64_t seed);
 
   const WorldOptions& options() const { return opt_; }
-  /// Terrain height z at (x, y): the plane z = grade * x + side_tilt * y.
-  double groundHeight(double x_W, double y_W) const { return gx_ * x_W + gy_ * y_W; }
-  /// Unit terrain normal (points up).
+  /// Ground height z at (x, y): the plane z = grade * x + side_tilt * y plus the height field.
+  double groundHeight(double x_W, double y_W) const {
+    return field_ ? planeHeight(x_W, y_W) + field_->height(x_W, y_W) : planeHeight(x_W, y_W);
+  }
+  /// The terrain plane's height at (x, y) (the ground without the height field).
+  double planeHeight(double x_W, double y_W) const { return gx_ * x_W + gy_ * y_W; }
+  /// Unit normal of the terrain plane (points up).
   const Vec3& groundNormal() const { return normal_W_; }
+  /// Unit normal of the ground at (x, y), the height field included (points up).
+  Vec3 groundNormalAt(double x_W, double y_W) const;
+  /// Slope of the terrain plane: dz/dx, dz/dy.
+  Vec2 planeGradient() const { return Vec2(gx_, gy_); }
+  /// The height field on the plane; null when the ground is the plane.
+  const std::shared_ptr<const HeightField>& heightField() const { return field_; }
+  /// Displacement (along the row, up; metres) of the leaves at (x, h above the ground) of a canopy
+  /// layer at time t_s: smooth in space and time, at most wind_amplitude_m long; zero without wind.
+  Vec2 leafSway(int row, int layer, double x, double h, double t_s) const;
   /// Terrain frame T: x along the rows (up the grade), z = terrain normal, origin at W's origin.
   const Mat3& R_W_T() const { return R_W_T_; }
   double rowY(int row) const { return row * opt_.row_spacing_m; }
@@ -93,11 +109,19 @@ class VineyardWorld {
   void collect(const Vec3& o, const Vec3& d, double fp, double t_s, double t_limit,
                HitList* out) const;
   void collectRow(int row, const Vec3& o, const Vec3& d, double fp, double t0, double t1,
-                  double t_limit, HitList* out) const;
+                  double t_limit, double t_s, HitList* out) const;
+  /// Distance along the unit ray to the uneven ground (the height field on the plane), below
+  /// t_max; kFar when none.
+  double roughGroundHit(const Vec3& o, const Vec3& d, double t_max) const;
   void addVerticalCylinder(const Vec3& o, const Vec3& d, double fp, double t_limit, double cx,
                            double cy, double radius, double height, float tone,
                            std::uint32_t texture_seed, HitList* out) const;
-  float layerCoverage(int row, int layer, double x, double h, double fp_m, float* tone) const;
+  float layerCoverage(int row, int layer, double x, double h, double fp_m, double t_s,
+                      float* tone) const;
+  /// y of leaf layer k of a row (k < canopy_layers) or of the row's centre line (k = layers).
+  double rowLineY(int row, int k) const;
+  /// groundHeight(x, rowLineY(row, k)), from a table on uneven ground.
+  double rowGroundHeight(int row, int k, double x) const;
   float groundTone(double x, double y, double fp_m) const;
   float skyTone(const Vec3& d, double fp) const;
   float backdropTone(double arc_m, double z, double fp_m) const;
@@ -115,6 +139,12 @@ class VineyardWorld {
   std::vector<double> post_x_;              // along every row
   std::vector<Walker> walkers_;
   std::vector<Marker> markers_;
+  std::shared_ptr<const HeightField> field_;  // null: flat ground
+  // The field along the leaf layers' lines (k < canopy_layers) and the row's centre line
+  // (k = canopy_layers) of every row, from x = row_ground_x0_ at kRowGroundStep.
+  static constexpr double kRowGroundStep = 0.01;
+  std::vector<std::vector<double>> row_ground_;
+  double row_ground_x0_ = 0.0;
 };
 
 }  // namespace ovo::sim

@@ -13,26 +13,6 @@
 namespace ovo::sim {
 namespace {
 
-// Centroid of |a - b| within `radius` pixels of `around`.
-std::optional<Vec2> diffCentroid(const cv::Mat& a, const cv::Mat& b, const Vec2& around,
-                                 int radius) {
-  cv::Mat diff;
-  cv::absdiff(a, b, diff);
-  diff.convertTo(diff, CV_64F);
-  double sum = 0.0, su = 0.0, sv = 0.0;
-  for (int v = std::max(0, int(around.y()) - radius);
-       v <= std::min(diff.rows - 1, int(around.y()) + radius); ++v)
-    for (int u = std::max(0, int(around.x()) - radius);
-         u <= std::min(diff.cols - 1, int(around.x()) + radius); ++u) {
-      const double w = diff.at<double>(v, u);
-      sum += w;
-      su += w * u;
-      sv += w * v;
-    }
-  if (sum < 1.0) return std::nullopt;
-  return Vec2(su / sum, sv / sum);
-}
-
 TEST(Render, WorldPointLandsWhereTheCameraModelProjectsIt) {
   const camera::Camera cam =
       camera::loadCamera(::ovo::test::sourcePath("configs/cameras/romovi_ocam.txt"));
@@ -61,7 +41,7 @@ TEST(Render, WorldPointLandsWhereTheCameraModelProjectsIt) {
     const cv::Mat white = renderer.renderRadiance(world, T_W_C, 0.0);
     world.setMarkers({{p_W, 0.04, 0.0f}});
     const cv::Mat black = renderer.renderRadiance(world, T_W_C, 0.0);
-    const auto centroid = diffCentroid(white, black, *px, 20);
+    const auto centroid = test::diffCentroid(white, black, *px, 20);
     ASSERT_TRUE(centroid) << off_axis_deg;
     EXPECT_LT((*centroid - *px).norm(), 0.5)
         << "off-axis " << off_axis_deg << " deg: rendered at " << centroid->transpose()
@@ -91,7 +71,7 @@ TEST(Render, CameraMountIsAppliedCameraToBody) {
   const cv::Mat white = sim.renderFrame(0);
   sim.world().setMarkers({{p_W, 0.05, 0.0f}});
   const cv::Mat black = sim.renderFrame(0);
-  const auto centroid = diffCentroid(white, black, *px, 25);
+  const auto centroid = test::diffCentroid(white, black, *px, 25);
   ASSERT_TRUE(centroid);
   EXPECT_LT((*centroid - *px).norm(), 0.5) << centroid->transpose() << " vs " << px->transpose();
 }

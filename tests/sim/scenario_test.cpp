@@ -113,6 +113,66 @@ TEST(Scenario, WrittenScenarioReadsBackTheSame) {
   EXPECT_EQ(scenarioYaml(back), scenarioYaml(s));
 }
 
+TEST(Scenario, RealitiesReadBackAndAreWrittenOnlyWhenOn) {
+  Scenario s = test::defaultScenario();
+  const std::string plain = scenarioYaml(s);
+  for (const char* key : {"time_offset_s", "rolling_shutter_s", "frame_drop_probability",
+                          "auto_exposure", "time_jitter_s", "sweep", "scan_time_s",
+                          "ground_roughness_m", "wind_amplitude_m", "rig:"})
+    EXPECT_EQ(plain.find(key), std::string::npos) << key;  // the bytes of older scenarios
+  s.camera.time_offset_s = -0.04;
+  s.camera.rolling_shutter_s = 0.025;
+  s.camera.frame_drop_probability = 0.01;
+  s.camera.auto_exposure = true;
+  s.camera.auto_exposure_step = 0.2;
+  s.camera.auto_exposure_rate_hz = 3.0;
+  s.imu.time_jitter_s = 0.0005;
+  s.lidar.sweep = true;
+  s.lidar.scan_time_s = 0.05;
+  s.world.ground_roughness_m = 0.02;
+  s.world.ground_wavelength_m = 1.5;
+  s.world.wind_amplitude_m = 0.03;
+  s.world.wind_period_s = 2.5;
+  s.rig.camera_time_offset_s = 0.01;
+  const Scenario back = readScenario(Config::fromString(scenarioYaml(s), "written.yaml"));
+  EXPECT_EQ(back.camera.time_offset_s, -0.04);
+  EXPECT_EQ(back.camera.rolling_shutter_s, 0.025);
+  EXPECT_EQ(back.camera.frame_drop_probability, 0.01);
+  EXPECT_TRUE(back.camera.auto_exposure);
+  EXPECT_EQ(back.camera.auto_exposure_step, 0.2);
+  EXPECT_EQ(back.camera.auto_exposure_rate_hz, 3.0);
+  EXPECT_EQ(back.imu.time_jitter_s, 0.0005);
+  EXPECT_TRUE(back.lidar.sweep);
+  EXPECT_EQ(back.lidar.scan_time_s, 0.05);
+  EXPECT_EQ(back.world.ground_roughness_m, 0.02);
+  EXPECT_EQ(back.world.ground_wavelength_m, 1.5);
+  EXPECT_EQ(back.world.wind_amplitude_m, 0.03);
+  EXPECT_EQ(back.world.wind_period_s, 2.5);
+  EXPECT_EQ(back.rig.camera_time_offset_s, 0.01);
+  EXPECT_EQ(scenarioYaml(back), scenarioYaml(s));
+}
+
+TEST(Scenario, RealitiesThatMakeNoSensorAreErrorsNamingTheKey) {
+  const std::string base = "camera:\n  model: pinhole\n";
+  EXPECT_NE(errorOf(base + "  rolling_shutter_s: 0.05\n").find("camera.rolling_shutter_s"),
+            std::string::npos);  // a frame period at 20 Hz
+  EXPECT_NE(errorOf(base + "  time_offset_s: 0.6\n").find("camera.time_offset_s"),
+            std::string::npos);
+  EXPECT_NE(errorOf(base + "lidar:\n  scan_time_s: 0.05\n").find("lidar.sweep is false"),
+            std::string::npos);
+  EXPECT_NE(errorOf(base + "lidar:\n  sweep: true\n  scan_time_s: 0.2\n")
+                .find("lidar.scan_time_s (0.2 s) must be at most the scan period"),
+            std::string::npos);
+  EXPECT_NE(errorOf(base + "imu:\n  time_jitter_s: 0.001\n").find("imu.time_jitter_s"),
+            std::string::npos);
+  EXPECT_NE(errorOf(base + "world:\n  ground_roughness_m: 0.2\n  ground_wavelength_m: 1.0\n")
+                .find("world.ground_roughness_m"),
+            std::string::npos);
+  EXPECT_EQ(errorOf(base + "  rolling_shutter_s: 0.03\n  time_offset_s: -0.05\nlidar:\n  "
+                           "sweep: true\n  scan_time_s: 0.1\nimu:\n  time_jitter_s: 0.0005\n"),
+            "");
+}
+
 TEST(Scenario, CameraMountLooksForwardAndDown) {
   MountOptions m;
   m.pitch_down_deg = 10.0;

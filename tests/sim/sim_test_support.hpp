@@ -2,6 +2,10 @@
 // switched off where a test needs exact values.
 #pragma once
 
+#include <opencv2/core.hpp>
+#include <optional>
+
+#include "common/types.hpp"
 #include "sim/scenario.hpp"
 #include "tests/test_support.hpp"
 
@@ -22,6 +26,27 @@ inline Scenario exactScenario() {
   s.imu.noise = false;
   s.lidar.noise = false;
   return s;
+}
+
+/// Centroid of |a - b| within `radius` pixels of `around` (a marker rendered white in one image
+/// and black in the other: the marker's coverage alone); nullopt when the images agree there.
+inline std::optional<Vec2> diffCentroid(const cv::Mat& a, const cv::Mat& b, const Vec2& around,
+                                        int radius) {
+  cv::Mat diff;
+  cv::absdiff(a, b, diff);
+  diff.convertTo(diff, CV_64F);
+  double sum = 0.0, su = 0.0, sv = 0.0;
+  for (int v = std::max(0, int(around.y()) - radius);
+       v <= std::min(diff.rows - 1, int(around.y()) + radius); ++v)
+    for (int u = std::max(0, int(around.x()) - radius);
+         u <= std::min(diff.cols - 1, int(around.x()) + radius); ++u) {
+      const double w = diff.at<double>(v, u);
+      sum += w;
+      su += w * u;
+      sv += w * v;
+    }
+  if (sum < 1.0) return std::nullopt;
+  return Vec2(su / sum, sv / sum);
 }
 
 }  // namespace ovo::sim::test
