@@ -269,8 +269,9 @@ void WindowCore::trimGyro() {
   // What a later preintegration starts from: the last frame (the next prediction, standstill
   // test, zero-rate update, and a scan up to lidar_scan_max_age_s older), the newest keyframe (the
   // next keyframe's gyro factor), a keyframe whose preintegration still waits for samples, and
-  // the references the window may start from; at most kGyroKeepS back.
-  Timestamp keep = last_t_ - fromSeconds(options_.lidar_scan_max_age_s + 0.1);
+  // the references the window may start from (and the scans before them: the initialiser takes
+  // the reference's scan, up to lidar_scan_max_age_s older); at most kGyroKeepS back.
+  Timestamp keep = last_t_;
   if (!map_.empty()) keep = std::min(keep, map_.keyframes.back()->t_ns);
   for (std::size_t k = 1; k < map_.keyframes.size(); ++k) {
     const auto& pi = map_.keyframes[k]->preint_from_prev;
@@ -279,6 +280,7 @@ void WindowCore::trimGyro() {
   }
   if (reference_) keep = std::min(keep, reference_->t_ns);
   if (still_reference_) keep = std::min(keep, still_reference_->t_ns);
+  keep -= fromSeconds(options_.lidar_scan_max_age_s + 0.1);
   keep = std::max(keep, last_t_ - fromSeconds(kGyroKeepS));
   gyro_.dropBefore(keep);
 }
