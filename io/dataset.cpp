@@ -461,7 +461,8 @@ Dataset loadDataset(const fs::path& root, const LoadOptions& options) {
         "{}: --rig and --topics apply to bags (.bag, .db3, .mcap, a rosbag2 folder); a dataset "
         "folder has its own rig.yaml",
         root.string());
-  if (fs::is_directory(root / "mav0" / "cam0")) return loadOvo(root, root / "mav0", options.records());
+  if (fs::is_directory(root / "mav0" / "cam0"))
+    return loadOvo(root, root / "mav0", options.records());
   if (fs::is_directory(root / "cam0")) return loadOvo(root, root, options.records());
   if (fs::is_directory(root / "image_0")) {
     if (!fs::exists(root / "calib.txt"))
@@ -490,6 +491,16 @@ cv::Mat loadImageGrey(const ImageEntry& entry) {
 
 cv::Mat loadDatasetImage(const Dataset& ds, std::size_t index) {
   const ImageEntry& entry = ds.images.at(index);
+  if (entry.load) {  // a bag's message, decoded by its reader
+    cv::Mat image = entry.load();
+    if (ds.camera) {
+      const int w = camera::width(*ds.camera), h = camera::height(*ds.camera);
+      if (image.cols != w || image.rows != h)
+        fail("{}: the image is {}x{}, but the camera calibration ({}) is for {}x{} images",
+             entry.path.string(), image.cols, image.rows, ds.camera_file.string(), w, h);
+    }
+    return image;
+  }
   if (!ds.camera) return readImageGrey(entry.path);
   return readImageGrey(entry.path,
                        {cv::Size(camera::width(*ds.camera), camera::height(*ds.camera)),

@@ -309,7 +309,8 @@ TEST(Dataset, BadInputGivesAnErrorNamingFileAndLine) {
       fs::remove(root / "cam0" / "sensor.yaml");
     else
       test::writeTextFile(root / c.file, c.content);
-    const std::string err = errorOf([&] { loadDataset(root, {.strict = true}); });
+    const std::string err =
+        errorOf([&] { loadDataset(root, {.rig = {}, .topics = {}, .strict = true}); });
     EXPECT_CONTAINS(err, c.expected) << " (case " << c.name << ")";
     if (c.skipped_reason) {
       const Dataset ds = loadDataset(root);
@@ -371,11 +372,13 @@ TEST(Dataset, BadRecordsInTheMiddleOfAStreamAreSkippedAndCounted) {
   // The first of each kind names the file and line.
   EXPECT_EQ(ds.skipped.kinds()[0].sensor, "camera");
   EXPECT_CONTAINS(ds.skipped.kinds()[0].first, "cam0/data.csv:3: image file");
-  for (const auto& k : ds.skipped.kinds())
-    if (k.reason == "stamp_ahead")
+  for (const auto& k : ds.skipped.kinds()) {
+    if (k.reason == "stamp_ahead") {
       EXPECT_CONTAINS(k.first, "imu0/data.csv:11: time stamp 9000000000 ns is ahead");
+    }
+  }
   // --strict: the first bad record is the error.
-  EXPECT_CONTAINS(errorOf([&] { loadDataset(root, {.strict = true}); }),
+  EXPECT_CONTAINS(errorOf([&] { loadDataset(root, {.rig = {}, .topics = {}, .strict = true}); }),
                   "cam0/data.csv:3: image file");
   // A stream with no usable record left is a bad file.
   test::writeTextFile(root / "imu0" / "data.csv", "1,nan,0,0,0,0,0\n2,x,0,0,0,0,0\n");

@@ -186,7 +186,9 @@ TEST(SensorTiming, SimulateWritesTheRealitiesAndTheReaderTakesThemBack) {
   ASSERT_EQ(ds.scans.size(), 3u);
   for (std::size_t i = 0; i < ds.scans.size(); ++i) {
     EXPECT_EQ(ds.scans[i].t_ns, 1'000'000'000 + static_cast<Timestamp>(i) * 100'000'000);
-    EXPECT_DOUBLE_EQ(ds.scans[i].time_increment_s, 0.1 * 0.5 / 360.0);
+    // float32, as in a LaserScan message (the simulator rounds the LiDAR's values in every format).
+    EXPECT_DOUBLE_EQ(ds.scans[i].time_increment_s,
+                     static_cast<double>(static_cast<float>(0.1 * 0.5 / 360.0)));
   }
   EXPECT_TRUE(io::lidarTimingNotes(ds).empty());
   // Gyro stamps jittered: not all on the 5 ms grid.

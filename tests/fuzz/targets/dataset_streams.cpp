@@ -46,7 +46,8 @@ void loadWith(const char* file, ovo::fuzz::Bytes input) {
   ovo::fuzz::writeScratch(std::string("ds/") + file, input);
   for (const bool strict : {false, true})
     ovo::fuzz::expectOnlyOvoErrors([&] {
-      const ovo::io::Dataset ds = ovo::io::loadDataset(root, {.strict = strict});
+      const ovo::io::Dataset ds =
+          ovo::io::loadDataset(root, {.rig = {}, .topics = {}, .strict = strict});
       (void)ovo::io::clockOverlapNotes(ds, ds.groundtruth);
       (void)ds.skipped.toJson();
     });
