@@ -14,16 +14,6 @@ namespace {
 
 constexpr double kDegToRad = M_PI / 180.0;
 
-std::vector<TrackObservation> toVector(const std::unordered_map<TrackId, TrackObservation>& m) {
-  std::vector<TrackObservation> v;
-  v.reserve(m.size());
-  for (const auto& [id, o] : m) v.push_back(o);
-  std::sort(v.begin(), v.end(), [](const TrackObservation& a, const TrackObservation& b) {
-    return a.track_id < b.track_id;
-  });
-  return v;
-}
-
 }  // namespace
 
 void WindowCore::startReference(const VisualFrame& frame, const SE3& T_W_B) {
@@ -118,7 +108,7 @@ void WindowCore::startWindow(const VisualFrame& frame, const InitialGeometry& g)
   std::unordered_map<TrackId, TrackObservation> keep1;
   for (const auto& o : frame.observations)
     if (ref.obs.count(o.track_id)) keep1[o.track_id] = o;
-  Keyframe* kf0 = addKeyframe(ref.t_ns, ref.T_W_B, bias_, toVector(ref.obs), nullptr);
+  Keyframe* kf0 = addKeyframe(ref.t_ns, ref.T_W_B, bias_, sortedObservations(ref.obs), nullptr);
   Keyframe* kf1 = addKeyframe(frame.t_ns, g.T_W_B1, bias_, frame.observations, &keep1);
   const TwoViewResult& tv = g.two_view;
   for (std::size_t k = 0; k < tv.points_index.size(); ++k) {

@@ -11,7 +11,10 @@ namespace {
 
 constexpr int kMinReferenceTracks = 20;  // shared tracks to measure a rotation before the start
 
-std::vector<TrackObservation> toVector(const std::unordered_map<TrackId, TrackObservation>& m) {
+}  // namespace
+
+std::vector<TrackObservation> sortedObservations(
+    const std::unordered_map<TrackId, TrackObservation>& m) {
   std::vector<TrackObservation> v;
   v.reserve(m.size());
   for (const auto& [id, o] : m) v.push_back(o);
@@ -20,8 +23,6 @@ std::vector<TrackObservation> toVector(const std::unordered_map<TrackId, TrackOb
   });
   return v;
 }
-
-}  // namespace
 
 void Reference::keepSightings(int frame_record, const VisualFrame& frame) {
   std::vector<TrackObservation> seen;
@@ -158,7 +159,7 @@ WindowInitializer::Outcome WindowInitializer::attempt(
           view == 0 ? scan_for(ref.t_ns, ref.T_W_B) : scan_for(frame.t_ns, T_W_B_pred);
       if (!scan) continue;
       const auto beams = lidar_.usableBeams(*scan);
-      const auto& observations = view == 0 ? toVector(ref.obs) : frame.observations;
+      const auto& observations = view == 0 ? sortedObservations(ref.obs) : frame.observations;
       for (const BeamMatch& m : associateBeams(beams, observations, options_.lidar_radius_px)) {
         auto it = point_of.find(m.track_id);
         if (it == point_of.end()) continue;

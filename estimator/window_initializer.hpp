@@ -24,6 +24,10 @@
 
 namespace ovo::estimator {
 
+/// The observations of a map in track-id order.
+std::vector<TrackObservation> sortedObservations(
+    const std::unordered_map<TrackId, TrackObservation>& m);
+
 /// A two-view reference: a frame the window may start from and the tracks it keeps.
 struct Reference {
   Timestamp t_ns = 0;

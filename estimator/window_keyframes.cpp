@@ -5,17 +5,12 @@
 #include <cstdint>
 #include <unordered_map>
 
+#include "common/stats.hpp"
+
 namespace ovo::estimator {
 namespace {
 
 constexpr double kDegToRad = M_PI / 180.0;
-
-double median(std::vector<double> v) {
-  if (v.empty()) return 0.0;
-  auto mid = v.begin() + static_cast<long>(v.size() / 2);
-  std::nth_element(v.begin(), mid, v.end());
-  return *mid;
-}
 
 }  // namespace
 
@@ -69,7 +64,7 @@ bool isKeyframe(const VisualFrame& frame, const SE3& T_W_B, const Keyframe& last
     angles.push_back(
         std::acos(std::clamp((R_Ck_C * o.bearing_C).dot(it->second.bearing_C), -1.0, 1.0)));
   }
-  const double parallax_deg = median(angles) / kDegToRad;
+  const double parallax_deg = upperMedian(angles) / kDegToRad;
   const double alive = last.observations.empty()
                            ? 0.0
                            : static_cast<double>(angles.size()) / last.observations.size();

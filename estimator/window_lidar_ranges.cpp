@@ -4,19 +4,13 @@
 #include <cmath>
 #include <unordered_set>
 
+#include "common/stats.hpp"
 #include "estimator/lidar_scale.hpp"
 
 namespace ovo::estimator {
 namespace {
 
 constexpr double kDegToRad = M_PI / 180.0;
-
-double median(std::vector<double> v) {
-  if (v.empty()) return 0.0;
-  auto mid = v.begin() + static_cast<long>(v.size() / 2);
-  std::nth_element(v.begin(), mid, v.end());
-  return *mid;
-}
 
 }  // namespace
 
@@ -112,7 +106,7 @@ std::optional<double> WindowLidar::scaleRatio(const WindowMap& map) const {
   if (static_cast<int>(ratios.size()) < options_.lidar_rescale_min_ranges) return std::nullopt;
   std::vector<double> values;
   for (const auto& [ratio, id] : ratios) values.push_back(ratio);
-  const double mid = median(values);
+  const double mid = upperMedian(values);
   // The ranges that agree with the median: at least half of them and min_ranges, from more than
   // one landmark (one landmark seen from every keyframe is one measurement, not a consensus).
   std::vector<double> agree;
@@ -125,7 +119,7 @@ std::optional<double> WindowLidar::scaleRatio(const WindowMap& map) const {
   if (static_cast<int>(agree.size()) < options_.lidar_rescale_min_ranges ||
       2 * agree.size() < ratios.size() || tracks.size() < 3)
     return std::nullopt;
-  return median(agree);
+  return upperMedian(agree);
 }
 
 }  // namespace ovo::estimator
