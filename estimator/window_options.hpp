@@ -64,9 +64,10 @@ struct WindowOptions {
 
   // Noise and losses.
   double pixel_sigma = -1.0;              // image noise, px; < 0: the rig's value
-  bool bearing_sigma_from_camera = true;  // a sighting's angular noise from the camera model's
-                                          // pixels per radian at its bearing (false: the centre
-                                          // focal length for the whole image)
+  bool bearing_sigma_from_camera = false;  // a sighting's angular noise from the camera model's
+                                           // pixels per radian at its bearing (false: the centre
+                                           // focal length for the whole image; measured better,
+                                           // README "Accuracy and known limits")
   double bearing_huber_sigmas = 2.0;      // Huber loss threshold, in units of the bearing sigma
   double track_creep_px = 0.2;   // a track's random walk, px per sqrt(frame): the sigma between
                                  // two sightings grows with the frames between them
