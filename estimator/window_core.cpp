@@ -1,5 +1,7 @@
 #include "estimator/window_core.hpp"
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -50,6 +52,7 @@ WindowCore::WindowCore(const SensorSetup& setup, const WindowOptions& options,
       ground_options_(ground_options),
       use_gyro_(options.use_gyro && setup.has_gyro),
       use_lidar_(options.use_lidar && setup.has_lidar),
+      gyro_spikes_(options.gyro_max_jump_radps, options.gyro_max_spike_s),
       scans_(options_),
       lidar_(setup_, options_),
       initializer_(setup_, options_, ground_options, relpose_options,
@@ -94,6 +97,13 @@ void WindowCore::note(const std::string& text) {
 
 void WindowCore::addGyro(const ImuSample& sample) {
   if (!options_.use_gyro) return;
+  if (!gyro_spikes_.accept(sample)) {
+    note(fmt::format(
+        "gyro: samples whose rate jumped by more than {} rad/s in one sample were left out as "
+        "spikes",
+        options_.gyro_max_jump_radps));
+    return;
+  }
   gyro_.add(sample);
 }
 

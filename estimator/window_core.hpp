@@ -20,6 +20,7 @@
 #include "estimator/estimator.hpp"
 #include "estimator/ground_plane.hpp"
 #include "estimator/gyro_buffer.hpp"
+#include "estimator/gyro_spike_filter.hpp"
 #include "estimator/lidar_scale.hpp"
 #include "estimator/pose_refinement.hpp"
 #include "estimator/window_factors.hpp"
@@ -192,6 +193,7 @@ class WindowCore {
   bool use_lidar_ = true;
 
   GyroBuffer gyro_;
+  GyroSpikeFilter gyro_spikes_;
   static constexpr double kGyroKeepS = 30.0;  // gyro history kept at most (a long stop), s
   ScanTimeline scans_;
   WindowLidar lidar_;

@@ -44,6 +44,8 @@ WindowOptions readWindowOptions(const Config& c) {
   o.lidar_association_sigma_m =
       c.getInRange(p + "lidar_association_sigma_m", o.lidar_association_sigma_m, 0.0, 10.0);
   o.lidar_huber_sigmas = c.getInRange(p + "lidar_huber_sigmas", o.lidar_huber_sigmas, 0.1, 100.0);
+  o.gyro_max_jump_radps = c.getInRange(p + "gyro_max_jump_radps", o.gyro_max_jump_radps, -1.0, 1e4);
+  o.gyro_max_spike_s = c.getInRange(p + "gyro_max_spike_s", o.gyro_max_spike_s, 0.0, 10.0);
   o.gyro_bias_random_walk =
       c.getInRange(p + "gyro_bias_random_walk", o.gyro_bias_random_walk, -1.0, 1.0);
   o.vision_rotation_sigma_rad =

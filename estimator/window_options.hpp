@@ -63,12 +63,12 @@ struct WindowOptions {
                                    // window's landmarks, deg
 
   // Noise and losses.
-  double pixel_sigma = -1.0;              // image noise, px; < 0: the rig's value
+  double pixel_sigma = -1.0;               // image noise, px; < 0: the rig's value
   bool bearing_sigma_from_camera = false;  // a sighting's angular noise from the camera model's
                                            // pixels per radian at its bearing (false: the centre
                                            // focal length for the whole image; measured better,
                                            // README "Accuracy and known limits")
-  double bearing_huber_sigmas = 2.0;      // Huber loss threshold, in units of the bearing sigma
+  double bearing_huber_sigmas = 2.0;       // Huber loss threshold, in units of the bearing sigma
   double track_creep_px = 0.2;   // a track's random walk, px per sqrt(frame): the sigma between
                                  // two sightings grows with the frames between them
   bool bearing_steps = true;     // a track's sightings after its first are tied to the previous
@@ -76,11 +76,15 @@ struct WindowOptions {
                                  // a random walk are independent, its errors against the anchor
                                  // are not (no effect with track_creep_px 0)
   double track_white_px = 0.16;  // the sighting noise of each end of a step, px
-  double lidar_range_sigma_m = -1.0;          // LiDAR range noise, m; < 0: the rig's value
-  double lidar_association_sigma_m = 0.0;     // added in quadrature to the range noise: a
-                                              // landmark off the scan plane, on foliage, m
-  double lidar_huber_sigmas = 2.0;            // robust loss threshold of LiDAR factors, sigmas
-  double gyro_bias_random_walk = -1.0;        // rad/s^2/sqrt(Hz); < 0: the rig's value
+  double lidar_range_sigma_m = -1.0;       // LiDAR range noise, m; < 0: the rig's value
+  double lidar_association_sigma_m = 0.0;  // added in quadrature to the range noise: a
+                                           // landmark off the scan plane, on foliage, m
+  double lidar_huber_sigmas = 2.0;         // robust loss threshold of LiDAR factors, sigmas
+  double gyro_max_jump_radps = 10.0;       // a gyro sample whose rate jumps more than this from the
+                                           // last one used, on any axis, is a spike and unused (a
+                                           // clipped reading); <= 0: all used
+  double gyro_max_spike_s = 0.05;       // ... for at most this long, s: a jump that lasts is real
+  double gyro_bias_random_walk = -1.0;  // rad/s^2/sqrt(Hz); < 0: the rig's value
   double gyro_bias_prior_sigma_radps = 0.02;  // prior on the first keyframe's bias, rad/s
   double vision_rotation_sigma_rad = 1e-3;    // a keyframe's orientation as the vision sees it is
                                               // tied to the gyro chain's with this sigma (0: one
