@@ -73,9 +73,16 @@ std::vector<BeamMatch> associateBeams(const std::vector<BeamInImage>& beams,
                                       double radius_px) {
   // Grid of observations with cells of radius_px for a local search.
   const double cell = std::max(1.0, radius_px);
-  auto key = [cell](double u, double v) {
-    return (static_cast<std::int64_t>(std::floor(u / cell)) << 32) ^
-           static_cast<std::int64_t>(static_cast<std::uint32_t>(std::floor(v / cell)));
+  // A cell's index through int64 (clamped, a non-finite coordinate in cell 0): a negative or
+  // huge double converted straight to an unsigned or too narrow integer is undefined behaviour.
+  auto index = [cell](double x) -> std::int64_t {
+    const double c = std::floor(x / cell);
+    return std::isfinite(c) ? static_cast<std::int64_t>(std::clamp(c, -1e9, 1e9)) : 0;
+  };
+  auto key = [&index](double u, double v) {
+    return static_cast<std::int64_t>(
+        (static_cast<std::uint64_t>(index(u)) << 32) ^
+        static_cast<std::uint64_t>(static_cast<std::uint32_t>(index(v))));
   };
   std::unordered_map<std::int64_t, std::vector<int>> grid;
   for (int i = 0; i < static_cast<int>(observations.size()); ++i)
