@@ -34,33 +34,6 @@ Vec2 PlotFrame::toPx(double x, double y) const {
           top_px + (y_max - y) / (y_max - y_min) * height_px};
 }
 
-std::string xmlEscape(const std::string& text) {
-  std::string out;
-  out.reserve(text.size());
-  for (const char c : text) {
-    switch (c) {
-      case '&':
-        out += "&amp;";
-        break;
-      case '<':
-        out += "&lt;";
-        break;
-      case '>':
-        out += "&gt;";
-        break;
-      case '"':
-        out += "&quot;";
-        break;
-      case '\'':
-        out += "&apos;";
-        break;
-      default:
-        out += c;
-    }
-  }
-  return out;
-}
-
 namespace {
 
 // Ticks at 1, 2 or 5 x 10^k steps of about (hi - lo) / target.

@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "common/text.hpp"
 #include "common/types.hpp"
 
 namespace ovo::app {
@@ -44,9 +45,6 @@ std::vector<double> niceTicks(double lo, double hi, int target = 6);
 
 /// A line plot as one standalone <svg> element (embeddable in HTML as it is).
 std::string svgLinePlot(const std::vector<PlotSeries>& series, const PlotOptions& options);
-
-/// Text with &, <, >, " and ' escaped for XML.
-std::string xmlEscape(const std::string& text);
 
 /// The horizontal plane of a world frame for top views: the world axis along which the
 /// reference moves least is taken as up (+z for gravity-aligned ovo/EuRoC worlds, -y for

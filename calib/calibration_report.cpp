@@ -6,6 +6,7 @@
 #include <cmath>
 
 #include "calib/calibration_output.hpp"
+#include "common/text.hpp"
 
 namespace ovo::calib {
 namespace {
@@ -27,32 +28,6 @@ td.n { text-align: right; font-family: "DejaVu Sans Mono", monospace; }
 .note { color: #666; font-size: 13px; }
 )";
 
-std::string esc(const std::string& text) {
-  std::string out;
-  for (char c : text) {
-    switch (c) {
-      case '&':
-        out += "&amp;";
-        break;
-      case '<':
-        out += "&lt;";
-        break;
-      case '>':
-        out += "&gt;";
-        break;
-      case '"':
-        out += "&quot;";
-        break;
-      case '\'':
-        out += "&#39;";
-        break;
-      default:
-        out += c;
-    }
-  }
-  return out;
-}
-
 std::string colourOf(std::size_t k) {
   static const char* kColours[] = {"#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd",
                                    "#8c564b", "#e377c2", "#7f7f7f", "#bcbd22", "#17becf"};
@@ -61,8 +36,8 @@ std::string colourOf(std::size_t k) {
 
 std::string tile(const std::string& value, const std::string& label) {
   return fmt::format(
-      "<div class=\"tile\"><div class=\"v\">{}</div><div class=\"k\">{}</div></div>\n", esc(value),
-      esc(label));
+      "<div class=\"tile\"><div class=\"v\">{}</div><div class=\"k\">{}</div></div>\n",
+      xmlEscape(value), xmlEscape(label));
 }
 
 // An SVG of the image's frame, `width_px` wide, with the image rectangle drawn.
@@ -74,7 +49,7 @@ struct ImageFrame {
         "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{}\" height=\"{}\" viewBox=\"0 0 {} "
         "{}\"><text x=\"8\" y=\"16\" font-size=\"13\">{}</text><rect x=\"10\" y=\"24\" "
         "width=\"{:.1f}\" height=\"{:.1f}\" fill=\"#fafafa\" stroke=\"#888\"/>\n",
-        w, h, w, h, esc(title), scale * width_img, scale * height_img);
+        w, h, w, h, xmlEscape(title), scale * width_img, scale * height_img);
   }
   double x(double u) const { return 10.0 + scale * (u + 0.5); }
   double y(double v) const { return 24.0 + scale * (v + 0.5); }
@@ -185,8 +160,8 @@ std::string perImageSvg(const CalibrationRun& run) {
         "<rect x=\"{:.1f}\" y=\"{:.1f}\" width=\"{}\" height=\"{:.1f}\" fill=\"{}\"><title>{}: "
         "{:.3f} px</title></rect><text transform=\"translate({:.1f},{}) rotate(60)\" "
         "font-size=\"10\">{}</text>\n",
-        x, y(v), bar - 6, top + plot_h - y(v), colourOf(k), esc(r.boards[k].image), v, x + 4,
-        top + plot_h + 6, esc(r.boards[k].image));
+        x, y(v), bar - 6, top + plot_h - y(v), colourOf(k), xmlEscape(r.boards[k].image), v, x + 4,
+        top + plot_h + 6, xmlEscape(r.boards[k].image));
   }
   svg += fmt::format(
       "<line x1=\"{}\" y1=\"{:.1f}\" x2=\"{}\" y2=\"{:.1f}\" stroke=\"#222\" "
@@ -201,13 +176,13 @@ std::string reportHtml(const CalibrationRun& run) {
   const CalibrationResult& r = run.result;
   const nlohmann::json j = reportJson(run);
   std::string html = "<!DOCTYPE html>\n<html><head><meta charset=\"utf-8\"><title>ovo calibrate: " +
-                     esc(modelKindName(r.model)) + "</title><style>" + kStyle +
+                     xmlEscape(modelKindName(r.model)) + "</title><style>" + kStyle +
                      "</style></head><body>\n";
   html += fmt::format(
       "<h1>Camera calibration ({})</h1><div class=\"sub\">{}x{} images, board {}x{} "
       "inner corners of {} m, corners from {}</div>\n",
-      esc(modelKindName(r.model)), r.width, r.height, run.board.cols, run.board.rows,
-      run.board.square_m, esc(run.source));
+      xmlEscape(modelKindName(r.model)), r.width, r.height, run.board.cols, run.board.rows,
+      run.board.square_m, xmlEscape(run.source));
   html += "<div class=\"tiles\">\n";
   html += tile(fmt::format("{:.3f} px", r.rms_px), "reprojection RMS");
   html += tile(fmt::format("{:.3f} px", r.mean_of_image_means_px),
@@ -227,8 +202,8 @@ std::string reportHtml(const CalibrationRun& run) {
     const auto it = run.detected_by.find(r.boards[k].image);
     html += fmt::format(
         "<tr><td>{}</td><td class=\"n\">{:.3f}</td><td class=\"n\">{:.3f}</td><td>{}</td></tr>\n",
-        esc(r.boards[k].image), r.per_image_rms_px[k], r.per_image_mean_px[k],
-        esc(it == run.detected_by.end() ? run.source : it->second));
+        xmlEscape(r.boards[k].image), r.per_image_rms_px[k], r.per_image_mean_px[k],
+        xmlEscape(it == run.detected_by.end() ? run.source : it->second));
   }
   html += "</table>\n<h2>Rejected images</h2>\n";
   if (run.not_detected.empty() && r.rejected.empty()) {
@@ -237,22 +212,23 @@ std::string reportHtml(const CalibrationRun& run) {
     html += "<table><tr><th>image</th><th>reason</th></tr>\n";
     for (const auto* list : {&run.not_detected, &r.rejected})
       for (const RejectedImage& rej : *list)
-        html += fmt::format("<tr><td>{}</td><td>{}</td></tr>\n", esc(rej.image), esc(rej.reason));
+        html += fmt::format("<tr><td>{}</td><td>{}</td></tr>\n", xmlEscape(rej.image),
+                            xmlEscape(rej.reason));
     html += "</table>\n";
   }
   html += "<h2>Model</h2><table>\n";
   if (j.contains("camera"))
     for (auto it = j["camera"].begin(); it != j["camera"].end(); ++it)
-      html += fmt::format("<tr><td>{}</td><td class=\"n\">{}</td></tr>\n", esc(it.key()),
-                          esc(it->dump()));
+      html += fmt::format("<tr><td>{}</td><td class=\"n\">{}</td></tr>\n", xmlEscape(it.key()),
+                          xmlEscape(it->dump()));
   html += fmt::format(
       "<tr><td>board shape ({})</td><td class=\"n\">shear {:.5f}, stretch "
       "{:.5f}</td></tr>\n",
-      esc(j["board"]["shape"].get<std::string>()), r.board_shear, r.board_stretch);
+      xmlEscape(j["board"]["shape"].get<std::string>()), r.board_shear, r.board_stretch);
   html += fmt::format("<tr><td>linear initialisation RMS</td><td class=\"n\">{:.3f} px</td></tr>\n",
                       r.init_rms_px);
   html += "</table>\n";
-  for (const std::string& note : r.notes) html += "<p class=\"note\">" + esc(note) + "</p>\n";
+  for (const std::string& note : r.notes) html += "<p class=\"note\">" + xmlEscape(note) + "</p>\n";
   return html + "</body></html>\n";
 }
 
