@@ -37,6 +37,7 @@ KfEstimatorOptions readKfEstimatorOptions(const Config& cfg, const SensorSetup& 
   o.still_flow_deg = cfg.getInRange("kf.still_flow_deg", o.still_flow_deg, 0.0, 10.0);
   o.still_gyro_std_radps =
       cfg.getInRange("kf.still_gyro_std_radps", o.still_gyro_std_radps, 0.0, 10.0);
+  o.still_trim_s = cfg.getInRange("kf.still_trim_s", o.still_trim_s, 0.0, 10.0);
   o.use_gyro = cfg.get<bool>("kf.use_gyro", o.use_gyro);
   o.use_lidar = cfg.get<bool>("kf.use_lidar", o.use_lidar);
   o.ground = readGroundPlaneOptions(cfg);
@@ -201,10 +202,10 @@ class KfEstimator final : public Estimator {
       } else {
         filter_.propagateTo(t_ns);
       }
-      if (vo_ok && use_gyro_ && options_.zero_rate_update && standingStill(s)) {
-        filter_.zeroRateUpdate(frame_gyro_.mean(), toSeconds(t_ns - trajectory_.back().t_ns));
-        ++still_frames_;
-      }
+      if (vo_ok && use_gyro_ && options_.zero_rate_update && standingStill(s))
+        holdZeroRate(t_ns, frame_gyro_.mean(), toSeconds(t_ns - trajectory_.back().t_ns));
+      else
+        held_zero_rate_.clear();  // moving (or unsure): the last still-looking frames were not
       // The fused rotation; without a gyro the filter cannot follow between VO updates, so the
       // VO rotation from the reference stands in for it there.
       Mat3 R_W_Bcur = filter_.R_W_B();
@@ -288,6 +289,20 @@ class KfEstimator final : public Estimator {
     if (frame_gyro_.spread() > options_.still_gyro_std_radps) return false;
     return medianParallaxDeg(s.bearings_prev, s.bearings_cur, Mat3::Identity()) <
            options_.still_flow_deg;
+  }
+
+  // A still frame's zero-rate measurement waits in held_zero_rate_ until the standstill has
+  // lasted still_trim_s past it (then it updates the filter), or is dropped when the motion starts
+  // first: the frames just before motion is seen (slow start, flow below still_flow_deg, smooth
+  // rates) are often moving already.
+  void holdZeroRate(Timestamp t_ns, const Vec3& mean_rate_radps, double window_s) {
+    held_zero_rate_.push_back({t_ns, mean_rate_radps, window_s});
+    const Timestamp trim_ns = fromSeconds(options_.still_trim_s);
+    while (!held_zero_rate_.empty() && t_ns - held_zero_rate_.front().t_ns >= trim_ns) {
+      const HeldZeroRate& z = held_zero_rate_.front();
+      if (filter_.zeroRateUpdate(z.mean_rate_radps, z.window_s).applied) ++still_frames_;
+      held_zero_rate_.pop_front();
+    }
   }
 
   // Propagates the filter with every gyro sample up to t (the rest wait for later frames), and
@@ -441,6 +456,12 @@ class KfEstimator final : public Estimator {
   std::optional<Timestamp> last_gyro_t_;
   GyroScatter frame_gyro_;  // the gyro samples fed for the current frame
   int still_frames_ = 0;    // frames with a zero-rate update
+  struct HeldZeroRate {
+    Timestamp t_ns = 0;
+    Vec3 mean_rate_radps = Vec3::Zero();
+    double window_s = 0.0;
+  };
+  std::deque<HeldZeroRate> held_zero_rate_;  // still frames waiting for still_trim_s more
   std::deque<LidarScan> scans_;
   double ground_speed_mps_ = 0.0;  // last ground-plane speed (uncorrected)
   double lidar_speed_mps_ = 0.0;   // last direct LiDAR speed (no camera height)

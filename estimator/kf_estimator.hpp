@@ -35,6 +35,10 @@ struct KfEstimatorOptions {
   double still_gyro_std_radps = 0.005;  // ... and the frame's gyro samples this quiet, rad/s
                                         // (2x the sample noise of a MEMS gyro at 200 Hz; ride
                                         // vibration at cruise speed gives 0.004-0.01)
+  double still_trim_s = 0.3;  // a still frame's zero-rate update waits until the standstill has
+                              // lasted this long after it, and is dropped if the motion starts
+                              // first (the first moving frames look still: on steep_slope one of
+                              // them put its 19 mrad/s turn into the bias and kept it there), s
   bool use_gyro = true;
   bool use_lidar = true;
   GroundPlaneOptions ground;

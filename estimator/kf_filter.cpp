@@ -23,6 +23,10 @@ KfOptions readKfOptions(const Config& config) {
   o.bias_freeze_rate_radps =
       config.getInRange("kf.bias_freeze_rate_radps", o.bias_freeze_rate_radps, 0.0, 100.0);
   o.vo_gate_chi2 = config.getInRange("kf.vo_gate_chi2", o.vo_gate_chi2, 0.0, 1e9);
+  o.zero_rate_gate_chi2 =
+      config.getInRange("kf.zero_rate_gate_chi2", o.zero_rate_gate_chi2, 0.0, 1e9);
+  o.zero_rate_sigma_radps =
+      config.getInRange("kf.zero_rate_sigma_radps", o.zero_rate_sigma_radps, 0.0, 1.0);
   o.max_gyro_gap_s = config.getInRange("kf.max_gyro_gap_s", o.max_gyro_gap_s, 1e-4, 10.0);
   o.gap_rotation_noise =
       config.getInRange("kf.gap_rotation_noise", o.gap_rotation_noise, 1e-6, 100.0);
@@ -141,7 +145,8 @@ KfUpdateResult KfFilter::zeroRateUpdate(const Vec3& mean_rate_radps, double wind
   if (!t_ns_ || !mean_rate_radps.allFinite() || !(window_s > 0.0)) return result;
   // z = b_g + n, n ~ N(0, sigma_g^2 / T); H = [0, I, 0].
   const Vec3 r = mean_rate_radps - b_g_;
-  const double sigma = options_.gyro_noise_density / std::sqrt(window_s);
+  const double sigma =
+      std::max(options_.gyro_noise_density / std::sqrt(window_s), options_.zero_rate_sigma_radps);
   result.sigma_vo_rad = sigma;
   Eigen::Matrix<double, 3, kErrorDim> H = Eigen::Matrix<double, 3, kErrorDim>::Zero();
   H.block<3, 3>(0, 3).setIdentity();
@@ -150,6 +155,10 @@ KfUpdateResult KfFilter::zeroRateUpdate(const Vec3& mean_rate_radps, double wind
   const Eigen::LDLT<Mat3> S_ldlt(S);
   if (S_ldlt.info() != Eigen::Success || !S_ldlt.isPositive()) return result;
   result.chi2 = r.dot(S_ldlt.solve(r));
+  if (options_.zero_rate_gate_chi2 > 0.0 && result.chi2 > options_.zero_rate_gate_chi2) {
+    result.gated = true;
+    return result;
+  }
   const Eigen::Matrix<double, kErrorDim, 3> K = S_ldlt.solve(H * P_).transpose();  // P H^T S^-1
   result.applied = applyCorrection(K, H, R_noise, K * r);
   return result;

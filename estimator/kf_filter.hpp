@@ -46,11 +46,18 @@ struct KfOptions {
   double gyro_bias_random_walk = 2.0e-5;  // sigma_bw, rad/s^2/sqrt(Hz)
   double init_rotation_sigma_rad = 0.01;  // prior on R_W_B at initialise(), rad
   double init_bias_sigma_radps = 0.03;    // prior on b_g at initialise(), rad/s
-  double vo_sigma0_rad = 3.0e-4;   // sigma_0: VO rotation noise at zero rotation, rad (a few times
-                                   // the chain's median frame-to-frame error on the simulator)
+  double vo_sigma0_rad = 5.0e-5;   // sigma_0: VO rotation noise at zero rotation, rad (the chain's
+                                   // frame-to-frame yaw error on the simulator: 3e-4, six times
+                                   // that, left the bias to the standstill, 0.2 mrad/s off)
   double vo_sigma_per_rad = 0.05;  // k_turn: extra VO noise per rad turned per frame, rad/rad
   double bias_freeze_rate_radps = 0.35;  // w_freeze: bias frozen above this turning rate, rad/s
-  double vo_gate_chi2 = 25.0;            // reject VO updates with r^T S^-1 r above this; 0: off
+  double vo_gate_chi2 = 16.0;            // reject VO updates with r^T S^-1 r above this; 0: off
+                                         // (25 let a stopping robot's low-parallax rotation
+                                         // through: 0.3 deg of yaw in one update)
+  double zero_rate_gate_chi2 = 0.0;      // ... and zero-rate updates; 0: off
+  double zero_rate_sigma_radps = 1.0e-3;  // smallest noise of one zero-rate update, rad/s: a
+                                          // standing robot's idle vibration, not only the
+                                          // gyro's white noise (sigma_g / sqrt(T))
   double max_gyro_gap_s = 0.05;          // longer without gyro: predict without it, s
   double gap_rotation_noise = 1.0;  // sigma_gap, rotation random walk without gyro, rad/sqrt(s)
   bool operator==(const KfOptions&) const = default;

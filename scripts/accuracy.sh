@@ -1,8 +1,11 @@
 #!/usr/bin/env bash
 # The accuracy table of issue #7: every simulated scenario at its default seed and at the other
 # seeds the sessions have measured (21 runs), each estimator on the same dataset, one row a run:
-# ATE mm / final yaw deg / scale % / estimator_ms_median / realtime factor, and kf's ATE over the
-# window's. Datasets are simulated once into WORK/data and reused; runs go to WORK/runs.
+# ATE mm / final yaw deg / scale % / estimator_ms_median / realtime factor, kf's ATE over the
+# window's, and (issue 41) the window's and kf's ATE over the plain chain's (vo), with "(ATE)" or
+# "(yaw)" where a run misses the bar (window: ATE at most vo's, final yaw at most vo's + 0.05 deg;
+# kf: ATE at most 1.1 vo's) and the window's ATE sum over vo's on the driving runs. Datasets
+# are simulated once into WORK/data and reused; runs go to WORK/runs.
 #
 #   scripts/accuracy.sh [--work DIR] [--jobs N] [--estimators "vo kf window refine"]
 #                       [--runs "vineyard_row:1 steep_slope:5 ..."] [--set key=value ...]
@@ -111,32 +114,67 @@ cell() {  # ATE mm / yaw deg / scale % / est ms / RT from one metrics.json
            (.final_yaw_err_deg | r(100)), (.scale_err_pct | r(100)),
            (.timing.estimator_ms_median | r(10)), (.timing.realtime_factor | r(100))] | join(" / ")' "$1"
 }
-ate() { [ -f "$1" ] && jq -r '.ate_rmse_m // empty' "$1"; return 0; }
+field() { [ -f "$1" ] && jq -r "$2 // empty" "$1"; return 0; }
+has() { [[ " $ESTIMATORS " == *" $1 "* ]]; }
+ratio() { awk -v a="$1" -v b="$2" 'BEGIN { if (a == "" || b == "" || b <= 0) print "-"; else printf "%.2f", a / b }'; }
+# Issue 41's bars against the plain chain (vo): window ATE <= vo's and final yaw <= vo's + 0.05
+# deg on every run, window ATE sum over the driving runs <= 0.6 of vo's; kf ATE <= 1.1 vo's.
+driving() { [[ $1 == vineyard_row* || $1 == headland_turn* || $1 == steep_slope* ]]; }
 
 {
   header="| run |"; rule="|---|"
   for e in $ESTIMATORS; do header+=" $e: ATE mm / yaw deg / scale % / est ms / RT |"; rule+="---|"; done
-  both=false; [[ " $ESTIMATORS " == *" kf "* && " $ESTIMATORS " == *" window "* ]] && both=true
-  $both && { header+=" kf / window |"; rule+="---|"; }
+  kw=false; has kf && has window && kw=true
+  vw=false; has vo && has window && vw=true
+  vk=false; has vo && has kf && vk=true
+  $kw && { header+=" kf / window |"; rule+="---|"; }
+  $vw && { header+=" window / vo |"; rule+="---|"; }
+  $vk && { header+=" kf / vo |"; rule+="---|"; }
   echo "$header"; echo "$rule"
-  declare -A sum ate_of; wins=0; count=0
+  declare -A sum ate_of yaw_of; wins=0; count=0
+  w_ok=0; w_yaw_ok=0; k_ok=0; n_vo=0; drive_w=0; drive_vo=0
   for r in $RUNS; do
     name=$(name_of "$r"); row="| $name |"
     for e in $ESTIMATORS; do
       m="$WORK/runs/$name/$e/metrics.json"
       row+=" $(cell "$m") |"
-      ate_of[$e]=$(ate "$m"); sum[$e]=$(echo "${sum[$e]:-0} ${ate_of[$e]:-0}" | awk '{print $1 + $2}')
+      ate_of[$e]=$(field "$m" .ate_rmse_m); yaw_of[$e]=$(field "$m" .final_yaw_err_deg)
+      sum[$e]=$(echo "${sum[$e]:-0} ${ate_of[$e]:-0}" | awk '{print $1 + $2}')
     done
-    if $both; then
-      ratio=$(awk -v k="${ate_of[kf]}" -v w="${ate_of[window]}" 'BEGIN { if (k == "" || w == "" || w <= 0) print "-"; else printf "%.2f", k / w }')
-      [ "$ratio" = - ] && row+=" - |" || row+=" ${ratio}x |"; count=$((count + 1))
-      awk -v r="$ratio" 'BEGIN { exit !(r + 0 >= 2) }' && wins=$((wins + 1))
+    if $kw; then
+      k=$(ratio "${ate_of[kf]}" "${ate_of[window]}")
+      [ "$k" = - ] && row+=" - |" || row+=" ${k}x |"; count=$((count + 1))
+      awk -v r="$k" 'BEGIN { exit !(r + 0 >= 2) }' && wins=$((wins + 1))
+    fi
+    if has vo && [ -n "${ate_of[vo]}" ]; then
+      n_vo=$((n_vo + 1))
+      if $vw; then
+        w=$(ratio "${ate_of[window]}" "${ate_of[vo]}")
+        flag=""
+        awk -v r="$w" 'BEGIN { exit !(r != "-" && r + 0 <= 1) }' && w_ok=$((w_ok + 1)) || flag=" (ATE)"
+        awk -v a="${yaw_of[window]}" -v b="${yaw_of[vo]}" 'BEGIN { exit !(a != "" && a <= b + 0.05) }' &&
+          w_yaw_ok=$((w_yaw_ok + 1)) || flag+=" (yaw)"
+        row+=" ${w}x$flag |"
+        if driving "$name"; then
+          drive_w=$(awk -v s="$drive_w" -v a="${ate_of[window]:-0}" 'BEGIN { print s + a }')
+          drive_vo=$(awk -v s="$drive_vo" -v a="${ate_of[vo]}" 'BEGIN { print s + a }')
+        fi
+      fi
+      if $vk; then
+        k=$(ratio "${ate_of[kf]}" "${ate_of[vo]}")
+        awk -v r="$k" 'BEGIN { exit !(r != "-" && r + 0 <= 1.1) }' && { k_ok=$((k_ok + 1)); row+=" ${k}x |"; } ||
+          row+=" ${k}x (ATE) |"
+      fi
+    else
+      $vw && row+=" - |"; $vk && row+=" - |"
     fi
     echo "$row"
   done
   row="| sum of ATE |"
   for e in $ESTIMATORS; do row+=" $(awk -v s="${sum[$e]}" 'BEGIN { printf "%.4f m", s }') |"; done
-  $both && row+=" $wins of $count at 2x |"
+  $kw && row+=" $wins of $count at 2x |"
+  $vw && row+=" $w_ok of $n_vo ATE, $w_yaw_ok of $n_vo yaw; driving $(ratio "$drive_w" "$drive_vo")x |"
+  $vk && row+=" $k_ok of $n_vo at 1.1x |"
   echo "$row"
 } | tee "$WORK/table.md"
 echo "table in $WORK/table.md" >&2
