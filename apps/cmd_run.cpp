@@ -21,6 +21,7 @@
 #include "apps/run_summary.hpp"
 #include "apps/viewer.hpp"
 #include "common/error.hpp"
+#include "common/process_usage.hpp"
 #include "io/dataset.hpp"
 #include "io/staged_folder.hpp"
 #include "io/text_reader.hpp"
@@ -70,6 +71,7 @@ void writeText(const std::filesystem::path& file, const std::string& text) {
 }
 
 int runRun(const RunArgs& args) {
+  const ProcessUsage usage_at_start = processUsage();
   Config config;
   if (!args.config.empty()) config = Config::load(args.config);
   config.applyOverrides(args.sets);
@@ -187,7 +189,11 @@ int runRun(const RunArgs& args) {
     timing.frontend_ms.push_back(f.frontend_ms);
     timing.estimator_ms.push_back(f.estimator_ms);
     timing.total_ms.push_back(f.frontend_ms + f.estimator_ms);
+    if (f.is_keyframe) timing.keyframe_ms.push_back(f.estimator_ms);
   }
+  const ProcessUsage usage = processUsage();
+  timing.cpu_s = usage.cpu_s - usage_at_start.cpu_s;
+  timing.peak_rss_mb = usage.peak_rss_mb;
   timing.sequence_s = toSeconds(data.images.back().t_ns - data.images.front().t_ns) +
                       1.0 / std::max(1.0, setup.camera_rate_hz);
   for (const auto& p : trajectory)
@@ -223,7 +229,8 @@ int runRun(const RunArgs& args) {
     report.bias_truth = data.true_gyro_bias;
     for (std::size_t i = 0; i < frames.size(); ++i)
       report.timing.push_back({frames[i].t_ns, frames[i].frontend_ms, frames[i].estimator_ms,
-                               i < timing.latency_ms.size() ? timing.latency_ms[i] : -1.0});
+                               i < timing.latency_ms.size() ? timing.latency_ms[i] : -1.0,
+                               frames[i].is_keyframe});
     report.metrics = metrics;
     report.config_yaml = config.dump();
     writeReport(tmp / "report.html", report);

@@ -105,15 +105,18 @@ std::string timingPlot(const ReportInputs& in) {
   if (in.timing.empty()) return "";
   const Timestamp t0 = in.timing.front().t_ns;
   PlotSeries fe{"frontend", {}, {}, "#1b9e77"}, es{"estimator", {}, {}, "#d95f02"},
-      total{"total", {}, {}, "#555555", false, 1.0}, lat{"latency (online)", {}, {}, "#7570b3"};
+      total{"total", {}, {}, "#555555", false, 1.0}, lat{"latency (online)", {}, {}, "#7570b3"},
+      kf{"keyframe (solve + marginalisation)", {}, {}, "#e7298a", false, 1.6, 2.5};
   for (const auto& f : in.timing) {
     const double t = toSeconds(f.t_ns - t0);
     fe.x.push_back(t), fe.y.push_back(f.frontend_ms);
     es.x.push_back(t), es.y.push_back(f.estimator_ms);
     total.x.push_back(t), total.y.push_back(f.frontend_ms + f.estimator_ms);
     if (f.latency_ms >= 0) lat.x.push_back(t), lat.y.push_back(f.latency_ms);
+    if (f.keyframe) kf.x.push_back(t), kf.y.push_back(f.estimator_ms);
   }
   std::vector<PlotSeries> series{total, fe, es};
+  if (!kf.x.empty()) series.push_back(kf);
   if (!lat.x.empty()) series.push_back(lat);
   PlotOptions o;
   o.title = "Per-frame timing";
@@ -151,6 +154,13 @@ std::string renderReportHtml(const ReportInputs& in) {
   h += tile(m, "latency_ms_median", "latency median", "ms");
   h += tile(m, "latency_ms_p99", "latency p99", "ms");
   h += tile(m, "frames_dropped", "frames dropped", "");
+  if (m.contains("timing")) {
+    const nlohmann::json& t = m["timing"];
+    h += tile(t, "realtime_factor", "realtime factor", "x");
+    h += tile(t, "keyframe_ms_p90", "keyframe solve p90", "ms");
+    h += tile(t, "cpu_s", "CPU (user + system)", "s");
+    h += tile(t, "peak_rss_mb", "peak resident memory", "MiB");
+  }
   h += "</div>\n";
 
   h += "<h2>Trajectory</h2>\n<div class=\"plots\">\n";

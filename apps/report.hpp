@@ -19,6 +19,7 @@ struct FrameTiming {
   Timestamp t_ns = 0;
   double frontend_ms = 0.0, estimator_ms = 0.0;
   double latency_ms = -1.0;
+  bool keyframe = false;  // estimator_ms holds the keyframe's solve and marginalisation
 };
 
 struct ReportInputs {

@@ -121,6 +121,13 @@ nlohmann::json computeRunMetrics(const Trajectory& estimate, const Trajectory& g
   t["frontend_ms_p90"] = percentile(timing.frontend_ms, 90);
   t["estimator_ms_median"] = percentile(timing.estimator_ms, 50);
   t["estimator_ms_p90"] = percentile(timing.estimator_ms, 90);
+  if (!timing.keyframe_ms.empty()) {
+    t["keyframe_ms_median"] = percentile(timing.keyframe_ms, 50);
+    t["keyframe_ms_p90"] = percentile(timing.keyframe_ms, 90);
+    t["keyframe_ms_max"] = percentile(timing.keyframe_ms, 100);
+  }
+  if (timing.cpu_s >= 0.0) t["cpu_s"] = timing.cpu_s;
+  if (timing.peak_rss_mb >= 0.0) t["peak_rss_mb"] = timing.peak_rss_mb;
   t["total_ms_median"] = percentile(timing.total_ms, 50);
   t["total_ms_p90"] = percentile(timing.total_ms, 90);
   t["wall_s"] = timing.wall_s;

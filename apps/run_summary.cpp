@@ -39,7 +39,15 @@ std::string runSummary(const nlohmann::json& m, const std::string& estimator,
     double rtf = 0, frame_ms = 0;
     get(m["timing"], "realtime_factor", &rtf);
     get(m["timing"], "total_ms_median", &frame_ms);
-    s += fmt::format("  speed: {:.2f}x realtime ({:.1f} ms a frame, median)\n", rtf, frame_ms);
+    std::string line =
+        fmt::format("  speed: {:.2f}x realtime ({:.1f} ms a frame, median", rtf, frame_ms);
+    double kf_p90 = 0, cpu = 0, rss = 0;
+    if (get(m["timing"], "keyframe_ms_p90", &kf_p90))
+      line += fmt::format("; keyframes {:.1f} ms p90", kf_p90);
+    line += ")";
+    if (get(m["timing"], "cpu_s", &cpu)) line += fmt::format(", {:.1f} s of CPU", cpu);
+    if (get(m["timing"], "peak_rss_mb", &rss)) line += fmt::format(", peak memory {:.0f} MiB", rss);
+    s += line + "\n";
   }
   if (out.empty())
     s += "  nothing written (give --out DIR for the trajectory, metrics.json and report.html)\n";

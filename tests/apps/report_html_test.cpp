@@ -279,9 +279,13 @@ ReportInputs sampleReport() {
     in.estimate[i].T_W_B.translation() *= 1.02;
     in.bias_estimate.push_back({in.estimate[i].t_ns, Vec3(0.001, -0.002, 0.003) * (i / 60.0)});
     in.bias_truth.push_back({in.estimate[i].t_ns, Vec3(0.001, -0.002, 0.003)});
-    in.timing.push_back({in.estimate[i].t_ns, 12.0 + i % 5, 3.0, 40.0 + i % 7});
+    const bool keyframe = i % 4 == 0;
+    in.timing.push_back(
+        {in.estimate[i].t_ns, 12.0 + i % 5, keyframe ? 60.0 : 3.0, 40.0 + i % 7, keyframe});
   }
-  in.metrics = {{"frames", 60}, {"ate_rmse_m", 0.05}, {"timing", {{"wall_s", 1.5}}}};
+  in.metrics = {{"frames", 60},
+                {"ate_rmse_m", 0.05},
+                {"timing", {{"wall_s", 1.5}, {"keyframe_ms_p90", 61.5}, {"cpu_s", 2.25}}}};
   in.config_yaml = "window:\n  size: 10   # <keyframes> & more\n";
   return in;
 }
@@ -298,6 +302,10 @@ TEST(Report, HasEveryPlotAsWellFormedSvgWithTheMetricsAndTheConfiguration) {
   EXPECT_NE(html.find("Gyro bias estimate vs truth"), std::string::npos);
   EXPECT_NE(html.find("timing.wall_s"), std::string::npos);
   EXPECT_NE(html.find("ate_rmse_m"), std::string::npos);
+  // Issue 43: the keyframes' cost plotted apart, the run's costs as tiles.
+  EXPECT_NE(html.find("keyframe (solve + marginalisation)"), std::string::npos);
+  EXPECT_NE(html.find("keyframe solve p90"), std::string::npos);
+  EXPECT_NE(html.find("CPU (user + system)"), std::string::npos);
   EXPECT_NE(html.find("# &lt;keyframes&gt; &amp; more"), std::string::npos);
   EXPECT_NE(html.find("/data/&lt;vineyard&gt; &amp; co"), std::string::npos);
   // Self-contained: no scripts, no links to anything outside the page.

@@ -108,6 +108,30 @@ TEST(RunMetrics, TheEstimatorsCountersAreWrittenAsTheyAre) {
   EXPECT_FALSE(m.contains("refine"));  // no full refinement ran
 }
 
+// Issue 43: the keyframes' cost where it is paid, the run's CPU and its peak memory.
+TEST(RunMetrics, KeyframeCostCpuAndMemoryAreReported) {
+  const Trajectory gt = straightDrive(10, 0.04);
+  RunTiming timing;
+  timing.estimator_ms = {1, 2, 40, 1, 2, 80, 1, 3, 60, 1};
+  timing.keyframe_ms = {40, 80, 60, 120};  // percentiles interpolate linearly
+  timing.cpu_s = 12.5;
+  timing.peak_rss_mb = 250.0;
+  timing.wall_s = 10.0;
+  timing.sequence_s = 20.0;
+  const nlohmann::json t = computeRunMetrics(gt, gt, {}, timing, 0.05)["timing"];
+  EXPECT_DOUBLE_EQ(t["keyframe_ms_median"].get<double>(), 70.0);
+  EXPECT_DOUBLE_EQ(t["keyframe_ms_p90"].get<double>(), 108.0);
+  EXPECT_DOUBLE_EQ(t["keyframe_ms_max"].get<double>(), 120.0);
+  EXPECT_DOUBLE_EQ(t["cpu_s"].get<double>(), 12.5);
+  EXPECT_DOUBLE_EQ(t["peak_rss_mb"].get<double>(), 250.0);
+  EXPECT_DOUBLE_EQ(t["realtime_factor"].get<double>(), 2.0);
+  // An estimator without keyframes (vo, kf) and a timing not measured: the keys are left out.
+  const nlohmann::json none = computeRunMetrics(gt, gt, {}, RunTiming{}, 0.05)["timing"];
+  EXPECT_FALSE(none.contains("keyframe_ms_p90"));
+  EXPECT_FALSE(none.contains("cpu_s"));
+  EXPECT_FALSE(none.contains("peak_rss_mb"));
+}
+
 TEST(RunMetrics, AFullRefinementIsReportedWithItsSizeAndCosts) {
   const Trajectory gt = straightDrive(10, 0.04);
   estimator::EstimatorStats stats;

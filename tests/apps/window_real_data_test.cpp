@@ -44,6 +44,13 @@ TEST(KittiWindow, FollowsTheFirstTurnAndHoldsTheGroundPlaneScale) {
   EXPECT_LT(m.at("final_yaw_err_deg").get<double>(), 1.0);
   EXPECT_LT(m.at("ate_pct").get<double>(), 1.0);
   EXPECT_LT(std::abs(m.at("scale_err_pct").get<double>()), 10.0);
+  // Issue 43's costs, where they are paid (values not asserted: no timing in tests).
+  const auto& t = m.at("timing");
+  EXPECT_GT(m.at("keyframes").get<int>(), 0);
+  EXPECT_GE(t.at("keyframe_ms_max").get<double>(), t.at("keyframe_ms_p90").get<double>());
+  EXPECT_GE(t.at("keyframe_ms_p90").get<double>(), t.at("keyframe_ms_median").get<double>());
+  EXPECT_GT(t.at("cpu_s").get<double>(), 0.0);
+  EXPECT_GT(t.at("peak_rss_mb").get<double>(), 0.0);
 }
 
 TEST(KittiWindow, FullRefinementKeepsTheGroundPlaneScale) {

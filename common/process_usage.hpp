@@ -1,0 +1,24 @@
+// What the running process has used so far: CPU time (user + system, all threads) and its peak
+// resident memory, from getrusage (Linux: ru_maxrss in KiB). `ovo run`'s metrics.json reports the
+// run's share (timing.cpu_s, timing.peak_rss_mb; issue 43).
+#pragma once
+
+#include <sys/resource.h>
+
+namespace ovo {
+
+struct ProcessUsage {
+  double cpu_s = 0.0;        // user + system CPU time of every thread, s
+  double peak_rss_mb = 0.0;  // the largest resident set so far, MiB
+};
+
+inline ProcessUsage processUsage() {
+  rusage u{};
+  if (::getrusage(RUSAGE_SELF, &u) != 0) return {};
+  const auto seconds = [](const timeval& t) {
+    return static_cast<double>(t.tv_sec) + 1e-6 * static_cast<double>(t.tv_usec);
+  };
+  return {seconds(u.ru_utime) + seconds(u.ru_stime), static_cast<double>(u.ru_maxrss) / 1024.0};
+}
+
+}  // namespace ovo
