@@ -27,6 +27,8 @@ KfEstimatorOptions readKfEstimatorOptions(const Config& cfg, const SensorSetup& 
   o.lidar_baseline_s = cfg.getInRange("kf.lidar_baseline_s", o.lidar_baseline_s, 0.01, 10.0);
   o.lidar_min_baseline_m =
       cfg.getInRange("kf.lidar_min_baseline_m", o.lidar_min_baseline_m, 0.0, 100.0);
+  o.lidar_max_rotation_deg =
+      cfg.getInRange("kf.lidar_max_rotation_deg", o.lidar_max_rotation_deg, 0.0, 180.0);
   o.scale_sigma0 = cfg.getInRange("kf.scale_sigma0", o.scale_sigma0, 1e-6, 10.0);
   o.scale_walk = cfg.getInRange("kf.scale_walk", o.scale_walk, 0.0, 10.0);
   o.scale_noise_floor = cfg.getInRange("kf.scale_noise_floor", o.scale_noise_floor, 1e-6, 10.0);
@@ -386,6 +388,7 @@ class KfEstimator final : public Estimator {
     if (!scan) return;
     const SE3 T_W_Ccur = base_trajectory_.back().T_W_B * setup_.T_B_C;
     std::vector<TrackScaleFeature> features;
+    const double max_rotation_rad = options_.lidar_max_rotation_deg * M_PI / 180.0;
     // This step's inliers (tracks that agree with the epipolar geometry since the reference).
     for (std::size_t i = 0; i < s.track_history.size() && i < s.px_all_cur.size(); ++i) {
       // The oldest observation within the baseline span (ChainStep::track_history) whose pose
@@ -394,7 +397,8 @@ class KfEstimator final : public Estimator {
         const auto T_W_Bold = basePoseAt(obs.t_ns);
         if (!T_W_Bold) continue;
         const SE3 T_Cold_Ccur = (*T_W_Bold * setup_.T_B_C).inverse() * T_W_Ccur;
-        if (T_Cold_Ccur.translation().norm() >= options_.lidar_min_baseline_m)
+        if (T_Cold_Ccur.translation().norm() >= options_.lidar_min_baseline_m &&
+            so3::angle(T_Cold_Ccur.linear()) <= max_rotation_rad)
           features.push_back({s.px_all_cur[i], s.bearings_cur[i], obs.bearing_C,
                               T_Cold_Ccur.linear(), T_Cold_Ccur.translation()});
         break;
