@@ -142,6 +142,10 @@ seed_corpus() {
     image)
       find "$SHARED/fisheye-calib-refs" -type f \( -name '*.png' -o -name '*.jpg' \) -size -64k 2>/dev/null |
         head -n 4 | while read -r f; do cp -n "$f" "$c/shared_$(basename "$f")"; done ;;
+    bag_ros1 | bag_sqlite3 | bag_mcap)  # the real bags of rosbag-fixtures (bz2, lz4, zstd among them)
+      local ext; case "$t" in bag_ros1) ext=bag ;; bag_sqlite3) ext=db3 ;; bag_mcap) ext=mcap ;; esac
+      find "$SHARED/rosbag-fixtures" -type f -name "*.$ext" -size -400k 2>/dev/null |
+        while read -r f; do cp -n "$f" "$c/shared_$(basename "$(dirname "$f")")_$(basename "$f")"; done ;;
   esac
 }
 
