@@ -4,8 +4,12 @@
 // --realtime replays the dataset at sensor rate through the threaded online pipeline (frames
 // dropped when behind, latency measured); --viewer shows the live window.
 #include <spdlog/spdlog.h>
+#include <tbb/global_control.h>
+
+#include <opencv2/core/utility.hpp>
 
 #include <algorithm>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
@@ -43,6 +47,7 @@ struct RunArgs {
   bool json = false;
   bool realtime = false;
   bool serial = false;
+  int threads = 0;  // at most this many threads (0: every core)
   bool strict = false;  // a bad record in a stream is an error (else skipped and counted)
   double rate = 1.0;
   int queue_depth = 2;
@@ -70,8 +75,19 @@ void writeText(const std::filesystem::path& file, const std::string& text) {
   io::writeFileAtomically(file, text);
 }
 
-int runRun(const RunArgs& args) {
+int runRun(const RunArgs& args_in) {
   const ProcessUsage usage_at_start = processUsage();
+  RunArgs args = args_in;
+  // --threads: before anything starts a thread pool (PoCL reads its variable when the OpenCL
+  // platform loads, with the frontend's RANSAC).
+  std::optional<tbb::global_control> thread_limit;
+  if (args.threads > 0) {
+    thread_limit.emplace(tbb::global_control::max_allowed_parallelism,
+                         static_cast<std::size_t>(args.threads));
+    cv::setNumThreads(args.threads);
+    ::setenv("POCL_MAX_PTHREAD_COUNT", std::to_string(args.threads).c_str(), 0);
+    if (args.threads == 1 && !args.realtime) args.serial = true;
+  }
   Config config;
   if (!args.config.empty()) config = Config::load(args.config);
   config.applyOverrides(args.sets);
@@ -204,6 +220,7 @@ int runRun(const RunArgs& args) {
   stats.notes.insert(stats.notes.begin(), setup_notes.begin(), setup_notes.end());
   nlohmann::json metrics = computeRunMetrics(trajectory, groundtruth, stats, timing);
   metrics["skipped"] = skipped.toJson();
+  metrics["timing"]["threads"] = args.threads;
   if (args.realtime) {
     metrics["realtime_rate"] = args.rate;
     metrics["timing"]["replay_lag_ms_max"] = replay_lag_ms_max;
@@ -285,6 +302,12 @@ CommandRunner setupRun(CLI::App& sub) {
                    "Replay at sensor rate through the threaded online pipeline (drops frames "
                    "when behind; metrics gain latency_ms_median/_p99 and frames_dropped)")
           ->excludes(serial);
+  sub.add_option("--threads", args->threads,
+                 "At most this many threads (TBB, OpenCV, PoCL's OpenCL CPU device); 1 also runs "
+                 "the offline stages in sequence, as --serial: a small robot computer's one "
+                 "core. 0: every core")
+      ->check(CLI::Range(0, 1024))
+      ->capture_default_str();
   sub.add_option("--rate", args->rate, "Replay speed factor for --realtime (2 = twice as fast)")
       ->check(CLI::Range(kMinReplayRate, kMaxReplayRate))
       ->needs(realtime)
