@@ -101,7 +101,8 @@ class Cursor {
 
  private:
   std::span<const std::uint8_t> bytes_;
-  const std::string& where_;
+  std::string where_;  // a copy: callers pass temporaries (a reference to one dangled: the bag_mcap
+                       // fuzz target's first finding, tests/fuzz/regressions/bag_mcap)
   std::uint64_t base_;
   const char* record_;
   std::size_t pos_ = 0;
@@ -412,9 +413,10 @@ void Reader::readChunk(std::uint64_t record_offset, std::span<const std::uint8_t
   chunks_.push_back(info);
   const std::span<const std::uint8_t> inner(records);
   std::uint64_t pos = 0;
+  const std::string inner_where = chunk_where + " (uncompressed)";
   while (pos < inner.size()) {
-    const RecordView r = recordAt(inner, pos, chunk_where + " (uncompressed)", 0, "chunk");
-    Cursor rc(r.content, chunk_where + " (uncompressed)", pos + 9, opName(r.op));
+    const RecordView r = recordAt(inner, pos, inner_where, 0, "chunk");
+    Cursor rc(r.content, inner_where, pos + 9, opName(r.op));
     switch (r.op) {
       case kSchema: {
         Schema s = parseSchema(rc);
