@@ -106,8 +106,10 @@ int runRun(const RunArgs& args_in) {
   }
 
   const io::RecordPolicy records{.strict = args.strict};
-  const io::Dataset data =
+  io::Dataset data =
       io::loadDataset(args.dataset, {.rig = args.rig, .topics = args.topics, .strict = args.strict});
+  const double time_offset_s = data.rig.camera_time_offset_s;
+  const std::optional<std::string> clock_note = imagesOntoGyroClock(data);
   if (data.images.empty()) fail("{}: the dataset has no images", args.dataset);
   for (const auto& kind : data.skipped.kinds()) warnSkipped(kind);
   io::SkippedRecords skipped = data.skipped;
@@ -116,6 +118,7 @@ int runRun(const RunArgs& args_in) {
 
   estimator::SensorSetup setup = sensorSetupFrom(data);
   std::vector<std::string> setup_notes = estimator::applyNoiseFloors(setup);
+  if (clock_note) setup_notes.push_back(*clock_note);
   for (auto& note : io::lidarTimingNotes(data)) setup_notes.push_back(std::move(note));
   // An estimator that uses the LiDAR may take the camera height from it when the rig gives none
   // (vo, the plain camera chain, stays without).
@@ -228,6 +231,7 @@ int runRun(const RunArgs& args_in) {
   nlohmann::json metrics = computeRunMetrics(trajectory, groundtruth, stats, timing);
   metrics["skipped"] = skipped.toJson();
   metrics["timing"]["threads"] = args.threads;
+  metrics["time_offset_s"] = time_offset_s;  // the rig's, applied as a constant (not estimated)
   if (args.realtime) {
     metrics["realtime_rate"] = args.rate;
     metrics["timing"]["replay_lag_ms_max"] = replay_lag_ms_max;

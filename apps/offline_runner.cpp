@@ -279,6 +279,18 @@ void failNoUsableImage(const io::Dataset& data, const io::SkippedRecords& skippe
   fail("{}: no image was processed", data.root.string());
 }
 
+std::optional<std::string> imagesOntoGyroClock(io::Dataset& data) {
+  const double offset_s = data.rig.camera_time_offset_s;
+  if (offset_s == 0.0) return std::nullopt;
+  const Timestamp offset_ns = fromSeconds(offset_s);
+  for (io::ImageEntry& image : data.images) image.t_ns -= offset_ns;
+  data.rig.camera_time_offset_s = 0.0;
+  return fmt::format(
+      "camera.time_offset_s {:+.2f} ms (rig): image stamps moved onto the gyro clock; the poses "
+      "are at gyro-clock times",
+      offset_s * 1e3);
+}
+
 estimator::SensorSetup sensorSetupFrom(const io::Dataset& data) {
   if (!data.camera) fail("{}: the dataset has no camera calibration", data.root.string());
   estimator::SensorSetup s{.camera = *data.camera};

@@ -61,6 +61,13 @@ void warnSkipped(const io::SkippedRecords::Kind& kind, bool more_may_follow = fa
 /// The estimator's view of a dataset's sensors.
 estimator::SensorSetup sensorSetupFrom(const io::Dataset& data);
 
+/// Moves the image stamps onto the gyro clock by the rig's camera.time_offset_s (image stamp =
+/// gyro-clock time + offset; the LiDAR and the ground truth are on the gyro clock), so that every
+/// estimator pairs each image with the gyro and the scans of its true time; the rig's offset is
+/// then 0 (the stamps hold it). Returns the note that says so, none when the offset is 0. Call it
+/// once, before sensorSetupFrom.
+std::optional<std::string> imagesOntoGyroClock(io::Dataset& data);
+
 /// When the rig gives no camera height and the LiDAR's first scans show the ground
 /// (estimator::cameraHeightFromLidar), sets setup->camera_height_m from them and returns a note
 /// saying so; nullopt (setup unchanged) otherwise.

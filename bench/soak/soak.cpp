@@ -105,8 +105,9 @@ int runSoak(const SoakArgs& args) {
   if (!(args.hours > 0)) fail("--hours: expected > 0, got {}", args.hours);
   Config config;
   config.applyOverrides(args.sets);
-  const io::Dataset data = io::loadDataset(args.dataset);
+  io::Dataset data = io::loadDataset(args.dataset);
   if (data.images.size() < 2) fail("{}: the soak needs a sequence of images", args.dataset);
+  if (auto note = imagesOntoGyroClock(data)) spdlog::info("{}", *note);
   estimator::SensorSetup setup = sensorSetupFrom(data);
   for (const auto& note : estimator::applyNoiseFloors(setup)) spdlog::info("{}", note);
   if (estimator::estimatorUsesLidar(args.estimator, config))
