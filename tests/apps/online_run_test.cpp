@@ -30,6 +30,17 @@ std::string slurp(const fs::path& p) {
   return ss.str();
 }
 
+// `ovo run --dataset data --estimator window --quiet <extra> --out dir/name`; the run must succeed.
+void runWindowInto(const fs::path& data, const fs::path& dir, const std::string& name,
+                   const std::string& extra) {
+  std::string out;
+  const int code = runShell("'" + ovoBinaryPath().string() + "' run --dataset '" + data.string() +
+                                "' --estimator window --quiet " + extra + " --out '" +
+                                (dir / name).string() + "'",
+                            dir, &out);
+  EXPECT_EQ(code, 0) << out;
+}
+
 TEST(OnlineRun, RealtimeReplayReportsLatencyAndDroppedFrames) {
   OVO_REQUIRE_DATA("kitti07-first160/image_0/000000.png");
   OVO_REQUIRE_PROGRAM(ovoBinaryPath());
@@ -80,16 +91,8 @@ TEST(OnlineRun, OneThreadGivesTheSamePoses) {
   OVO_REQUIRE_PROGRAM(ovoBinaryPath());
   const fs::path dir = tempDir();
   const fs::path data = makeMiniKitti(dir / "kitti", 12);
-  const auto run = [&](const std::string& extra, const std::string& name) {
-    std::string out;
-    const int code = runShell("'" + ovoBinaryPath().string() + "' run --dataset '" +
-                                  data.string() + "' --estimator window --quiet " + extra +
-                                  " --out '" + (dir / name).string() + "'",
-                              dir, &out);
-    EXPECT_EQ(code, 0) << out;
-  };
-  run("", "all");
-  run("--threads 1", "one");
+  runWindowInto(data, dir, "all", "");
+  runWindowInto(data, dir, "one", "--threads 1");
   EXPECT_EQ(slurp(dir / "one" / "trajectory.txt"), slurp(dir / "all" / "trajectory.txt"));
   const auto m = nlohmann::json::parse(slurp(dir / "one" / "metrics.json"));
   EXPECT_EQ(m["timing"]["threads"].get<int>(), 1);
@@ -105,12 +108,7 @@ TEST(OnlineRun, RealtimeWindowSolvesWithinATimeBudget) {
   const fs::path dir = tempDir();
   const fs::path data = makeMiniKitti(dir / "kitti", 6);
   const auto budgetOf = [&](const std::string& extra, const std::string& name) {
-    std::string out;
-    const int code = runShell("'" + ovoBinaryPath().string() + "' run --dataset '" +
-                                  data.string() + "' --estimator window --quiet " + extra +
-                                  " --out '" + (dir / name).string() + "'",
-                              dir, &out);
-    EXPECT_EQ(code, 0) << out;
+    runWindowInto(data, dir, name, extra);
     const Config used = Config::load(dir / name / "config.yaml");
     return used.get<double>("window.max_solver_time_s", -1.0);
   };
