@@ -27,7 +27,8 @@ inline std::vector<BoardObservation> syntheticBoards(const camera::Camera& cam,
                                                      std::vector<BoardPose>* truth = nullptr) {
   std::mt19937 rng(seed);
   std::uniform_real_distribution<double> uni(-1.0, 1.0);
-  std::normal_distribution<double> gauss(0.0, noise_px);
+  // Unit noise scaled by noise_px (0: exact corners; a normal_distribution needs a sigma > 0).
+  std::normal_distribution<double> gauss(0.0, 1.0);
   std::vector<BoardObservation> out;
   const Vec3 board_centre(0.5 * (spec.cols - 1) * spec.square_m,
                           0.5 * (spec.rows - 1) * spec.square_m, 0.0);
@@ -63,7 +64,7 @@ inline std::vector<BoardObservation> syntheticBoards(const camera::Camera& cam,
         all = false;
         break;
       }
-      obs.corners_px.push_back(*px + Vec2(gauss(rng), gauss(rng)));
+      obs.corners_px.push_back(*px + noise_px * Vec2(gauss(rng), gauss(rng)));
       obs.points_B.push_back(spec.point(i));
     }
     if (!all) continue;

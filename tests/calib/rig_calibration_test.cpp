@@ -40,16 +40,18 @@ Synthetic synthesize(const Mat3& R_B_C, double t_d, const Vec3& bias, bool singl
   Synthetic s;
   const double duration = 30.0, step = 1e-4;
   const Timestamp t0 = 1'000'000'000;
-  // Body orientation by fine integration, kept every millisecond.
+  // Body orientation by fine integration, kept every millisecond, past the last camera pair's
+  // end (0.5 s + 596 pairs of 0.05 s: 30.35 s; it stopped at 30 s and the last pairs read past
+  // the vector's end, which ASan's libstdc++ assertions caught).
   std::vector<Mat3> R_W_B{Mat3::Identity()};
   Mat3 R = Mat3::Identity();
-  for (int i = 1; i <= static_cast<int>(duration / step); ++i) {
+  for (int i = 1; i <= static_cast<int>((duration + 1.0) / step); ++i) {
     const double t = (i - 0.5) * step;
     R = R * so3::exp(omega(t, single_axis) * step);
     if (i % 10 == 0) R_W_B.push_back(R);
   }
   const auto orientation = [&](double t) {
-    return R_W_B[static_cast<std::size_t>(std::lround(t * 1000.0))];
+    return R_W_B.at(static_cast<std::size_t>(std::lround(t * 1000.0)));
   };
   for (int i = 0; i <= static_cast<int>(duration * 200); ++i) {
     const double t = i / 200.0;
