@@ -6,13 +6,12 @@
 #include <spdlog/spdlog.h>
 #include <tbb/global_control.h>
 
-#include <opencv2/core/utility.hpp>
-
 #include <algorithm>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <opencv2/core/utility.hpp>
 #include <optional>
 #include <set>
 
@@ -47,7 +46,7 @@ struct RunArgs {
   bool json = false;
   bool realtime = false;
   bool serial = false;
-  int threads = 0;  // at most this many threads (0: every core)
+  int threads = 0;      // at most this many threads (0: every core)
   bool strict = false;  // a bad record in a stream is an error (else skipped and counted)
   double rate = 1.0;
   int queue_depth = 2;
@@ -78,9 +77,10 @@ void writeText(const std::filesystem::path& file, const std::string& text) {
   io::writeFileAtomically(file, text);
 }
 
-int runRun(const RunArgs& args_in) {
+int runRun(const RunArgs& args) {
   const ProcessUsage usage_at_start = processUsage();
-  RunArgs args = args_in;
+  // Offline stages in sequence: --serial, or one thread (--threads 1).
+  const bool serial = args.serial || (args.threads == 1 && !args.realtime);
   // --threads: before anything starts a thread pool (PoCL reads its variable when the OpenCL
   // platform loads, with the frontend's RANSAC).
   std::optional<tbb::global_control> thread_limit;
@@ -89,7 +89,6 @@ int runRun(const RunArgs& args_in) {
                          static_cast<std::size_t>(args.threads));
     cv::setNumThreads(args.threads);
     ::setenv("POCL_MAX_PTHREAD_COUNT", std::to_string(args.threads).c_str(), 0);
-    if (args.threads == 1 && !args.realtime) args.serial = true;
   }
   Config config;
   if (!args.config.empty()) config = Config::load(args.config);
@@ -106,8 +105,8 @@ int runRun(const RunArgs& args_in) {
   }
 
   const io::RecordPolicy records{.strict = args.strict};
-  io::Dataset data =
-      io::loadDataset(args.dataset, {.rig = args.rig, .topics = args.topics, .strict = args.strict});
+  io::Dataset data = io::loadDataset(
+      args.dataset, {.rig = args.rig, .topics = args.topics, .strict = args.strict});
   const double time_offset_s = data.rig.camera_time_offset_s;
   const std::optional<std::string> clock_note = imagesOntoGyroClock(data);
   if (data.images.empty()) fail("{}: the dataset has no images", args.dataset);
@@ -188,8 +187,8 @@ int runRun(const RunArgs& args_in) {
           if (const LidarScan* scan = nearestScan(data.scans, f.t_ns)) viewer->addScan(*scan);
           viewer->addFrame(f, grey);
         };
-      OfflineRunResult r = runOffline(data, *est, progress, on_frame,
-                                      {.pipelined = !args.serial, .records = records});
+      OfflineRunResult r =
+          runOffline(data, *est, progress, on_frame, {.pipelined = !serial, .records = records});
       frames = std::move(r.frames);
       skipped.merge(r.skipped);
       timing.wall_s = r.wall_s;
@@ -249,7 +248,7 @@ int runRun(const RunArgs& args_in) {
     report.estimator = est->name();
     report.dataset = args.dataset;
     report.mode = args.realtime ? fmt::format("realtime replay at {}x", args.rate)
-                  : args.serial ? "offline, stages in sequence"
+                  : serial      ? "offline, stages in sequence"
                                 : "offline, two-stage pipeline";
     report.estimate = trajectory;
     report.groundtruth = groundtruth;
