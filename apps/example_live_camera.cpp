@@ -170,8 +170,16 @@ int run(const Args& args) {
   using namespace ovo;
   cv::VideoCapture capture;
   const bool device = isDeviceIndex(args.camera);
+  // A device index is a video device (/dev/videoN on Linux): open it through V4L2 directly.
+  // CAP_ANY would first probe every backend, gphoto2's USB scan of still cameras among them (a
+  // second of start-up, and memory that library never frees).
+#ifdef __linux__
+  constexpr int kDeviceApi = cv::CAP_V4L2;
+#else
+  constexpr int kDeviceApi = cv::CAP_ANY;
+#endif
   if (device)
-    capture.open(std::stoi(args.camera));
+    capture.open(std::stoi(args.camera), kDeviceApi);
   else
     capture.open(args.camera);
   if (!capture.isOpened() && device)
