@@ -230,7 +230,10 @@ int runRun(const RunArgs& args) {
   nlohmann::json metrics = computeRunMetrics(trajectory, groundtruth, stats, timing);
   metrics["skipped"] = skipped.toJson();
   metrics["timing"]["threads"] = args.threads;
-  metrics["time_offset_s"] = time_offset_s;  // the rig's, applied as a constant (not estimated)
+  // The rig's (the image stamps were moved by it), plus what the window estimated on top.
+  metrics["time_offset_s"] = time_offset_s + stats.time_offset_s.value_or(0.0);
+  metrics["time_offset_rig_s"] = time_offset_s;
+  metrics["time_offset_estimated"] = stats.time_offset_s.has_value();
   if (args.realtime) {
     metrics["realtime_rate"] = args.rate;
     metrics["timing"]["replay_lag_ms_max"] = replay_lag_ms_max;

@@ -154,6 +154,13 @@ std::string renderReportHtml(const ReportInputs& in) {
   h += tile(m, "latency_ms_median", "latency median", "ms");
   h += tile(m, "latency_ms_p99", "latency p99", "ms");
   h += tile(m, "frames_dropped", "frames dropped", "");
+  if (m.contains("time_offset_s") && m["time_offset_s"].is_number()) {
+    const nlohmann::json ms = {{"v", 1e3 * m["time_offset_s"].get<double>()}};
+    h += tile(ms, "v",
+              m.value("time_offset_estimated", false) ? "camera-gyro time offset (estimated)"
+                                                      : "camera-gyro time offset (rig.yaml)",
+              "ms");
+  }
   if (m.contains("timing")) {
     const nlohmann::json& t = m["timing"];
     h += tile(t, "realtime_factor", "realtime factor", "x");

@@ -110,6 +110,9 @@ struct EstimatorStats {
   int tracking_losses = 0;
   std::vector<std::string> notes;    // fallbacks said once ("no gyro: vision-only rotation", ...)
   std::optional<RefineInfo> refine;  // window --refine full: the final batch
+  // window: the camera-gyro time offset it estimated on top of the rig's (image stamp minus the
+  // gyro clock's time of the image), s; none when it holds the rig's value.
+  std::optional<double> time_offset_s;
 };
 
 /// The frontend stage's result for one image, handed to the estimator stage. A self-contained

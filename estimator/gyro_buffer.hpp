@@ -54,6 +54,8 @@ class GyroBuffer {
   }
   /// True when some sample is at or after t (the interval up to t can be integrated fully).
   bool covers(Timestamp t_ns) const { return !samples_.empty() && samples_.back().t_ns >= t_ns; }
+  /// True when some sample is at or before t (nothing before t has been dropped yet).
+  bool reaches(Timestamp t_ns) const { return !samples_.empty() && samples_.front().t_ns <= t_ns; }
   bool empty() const { return samples_.empty(); }
   const std::vector<ImuSample>& samples() const { return samples_; }
   /// Forgets samples older than t (keeping one before it for interpolation).

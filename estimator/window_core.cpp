@@ -9,6 +9,7 @@
 #include <utility>
 
 #include "common/so3.hpp"
+#include "estimator/lidar_deskew.hpp"
 #include "estimator/window_keyframes.hpp"
 #include "estimator/window_landmarks.hpp"
 #include "estimator/window_refine.hpp"
@@ -112,7 +113,29 @@ void WindowCore::addScan(const LidarScan& scan) {
   // Keep what the window can still use: scans newer than the oldest frame of interest.
   Timestamp keep_from = last_t_ - fromSeconds(5.0);
   if (reference_) keep_from = std::min(keep_from, reference_->t_ns);
-  scans_.add(scan, keep_from);
+  // The scans go onto the images' timeline (their stamps are on the gyro clock, the images' run
+  // ahead by the time offset), with the estimate of the time they arrive: they are used within
+  // a fraction of a second, while the estimate moves by much less.
+  LidarScan moved = deskewed(scan);
+  moved.t_ns += gyroShift();
+  scans_.add(moved, keep_from);
+}
+
+LidarScan WindowCore::deskewed(const LidarScan& scan) const {
+  if (!options_.lidar_deskew || scan.time_increment_s == 0.0 || scan.ranges_m.size() < 2)
+    return scan;
+  // The body's mean rate over the sweep from the gyro (held past its newest sample: the scan may
+  // arrive before the gyro of its last beams), and its velocity from the frames.
+  const double sweep_s = scan.time_increment_s * static_cast<double>(scan.ranges_m.size() - 1);
+  const Timestamp t0 = scan.t_ns + fromSeconds(std::min(0.0, sweep_s));
+  const Timestamp t1 = scan.t_ns + fromSeconds(std::max(0.0, sweep_s));
+  Vec3 w_B = Vec3::Zero();
+  if (const auto pi = preintegrateOnGyroClock(t0, t1, bias_);
+      pi && pi->status() != factors::GyroPreintegration::Status::kNoData)
+    w_B = so3::log(pi->deltaR()) / toSeconds(t1 - t0);
+  const Vec3 v_B = last_T_W_B_.linear().transpose() * velocity_W_;
+  return deskewScan(scan, lidarMotionFromBody([w_B](double tau_s) { return so3::exp(w_B * tau_s); },
+                                              v_B, setup_.T_B_L));
 }
 
 std::optional<Mat3> WindowCore::gyroRotation(Timestamp t0, Timestamp t1) const {
@@ -133,8 +156,20 @@ bool WindowCore::canReference(Timestamp t_ns) const {
              .has_value();
 }
 
+Timestamp WindowCore::gyroShift() const {
+  return estimatesTimeOffset(model_) ? fromSeconds(map_.time_offset_s[0]) : 0;
+}
+
 std::optional<factors::GyroPreintegration> WindowCore::preintegrate(Timestamp t0, Timestamp t1,
                                                                     const Vec3& bias) const {
+  // The image stamps run ahead of the gyro clock by the time offset: the gyro saw [t0, t1]
+  // that much earlier.
+  const Timestamp shift = gyroShift();
+  return preintegrateOnGyroClock(t0 - shift, t1 - shift, bias);
+}
+
+std::optional<factors::GyroPreintegration> WindowCore::preintegrateOnGyroClock(
+    Timestamp t0, Timestamp t1, const Vec3& bias) const {
   if (!use_gyro_ || gyro_.empty() || t1 <= t0) return std::nullopt;
   return factors::GyroPreintegration(gyro_.around(t0, t1), t0, t1, bias, options_.gyro);
 }
@@ -283,6 +318,10 @@ void WindowCore::trimGyro() {
   // the reference's scan, up to lidar_scan_max_age_s older); at most kGyroKeepS back.
   Timestamp keep = last_t_;
   if (!map_.empty()) keep = std::min(keep, map_.keyframes.back()->t_ns);
+  // With the time offset estimated: every keyframe of the window (its interval is integrated
+  // again when the offset moves), as far back as the offset may reach.
+  if (!map_.empty() && estimatesTimeOffset(model_))
+    keep = std::min(keep, map_.keyframes.front()->t_ns - fromSeconds(options_.time_offset_max_s));
   for (std::size_t k = 1; k < map_.keyframes.size(); ++k) {
     const auto& pi = map_.keyframes[k]->preint_from_prev;
     if (pi && pi->status() != factors::GyroPreintegration::Status::kOk)
@@ -301,7 +340,18 @@ void WindowCore::refreshGyroFactors() {
     Keyframe& kf = *map_.keyframes[k];
     const Keyframe& prev = *map_.keyframes[k - 1];
     auto& pi = kf.preint_from_prev;
-    if (!pi || pi->status() == factors::GyroPreintegration::Status::kOk || !gyro_.covers(kf.t_ns))
+    if (!pi) continue;
+    const Timestamp shift = gyroShift();
+    // The time offset has moved on since the preintegration was made: its factor's first-order
+    // shift (the rates at the ends held) is good for a few ms of angular acceleration, so the
+    // interval is integrated again while the buffer still holds it.
+    const bool shifted = std::abs(toSeconds(prev.t_ns - pi->tStart() - shift)) > kReshiftS;
+    if (shifted && gyro_.reaches(prev.t_ns - shift) && gyro_.covers(kf.t_ns - shift)) {
+      if (auto again = preintegrate(prev.t_ns, kf.t_ns, pi->biasLinearization()))
+        pi = std::make_shared<factors::GyroPreintegration>(std::move(*again));
+      continue;
+    }
+    if (pi->status() == factors::GyroPreintegration::Status::kOk || !gyro_.covers(kf.t_ns - shift))
       continue;
     // Samples that came late (the online mode's gyro queue behind the frames): the gap the
     // preintegration was made with may be filled now.
@@ -321,7 +371,13 @@ WindowCore::Prediction WindowCore::predict(Timestamp t_ns) {
     pred.rot_sigma = std::sqrt(pi->covariance().trace() / 3.0 + pred.rot_sigma * pred.rot_sigma);
     pred.rate_radps = so3::angle(pi->deltaR()) / pred.dt;
     pred.rotation_prior = pi->status() != factors::GyroPreintegration::Status::kNoData;
-    if (pi->status() != factors::GyroPreintegration::Status::kOk) {
+    // A camera stamped early (a negative time offset) needs gyro samples past its stamp, which
+    // are not all there yet: the preintegration holds the last rate over that end, no gap.
+    double not_yet_s = 0.0;
+    if (gyro_.covers(t_ns))
+      not_yet_s = std::max(0.0, toSeconds(t_ns - gyroShift() - gyro_.samples().back().t_ns));
+    if (pi->status() != factors::GyroPreintegration::Status::kOk &&
+        pi->gapSeconds() > not_yet_s + 1e-6) {
       if (!in_gap_) ++stats_.gyro_gaps;
       in_gap_ = true;
     } else {
@@ -458,6 +514,15 @@ Keyframe* WindowCore::addKeyframe(Timestamp t_ns, const SE3& T_W_B, const Vec3& 
   kf->t_ns = t_ns;
   kf->setPose(T_W_B);
   kf->setBias(bias);
+  if (model_.rolling_shutter_s > 0.0) {
+    // The body's motion through the readout, from the gyro's rate just before the keyframe (the
+    // samples of the readout itself may not have come yet) and the frames' velocity.
+    const Timestamp span = fromSeconds(std::max(model_.rolling_shutter_s, 0.02));
+    if (const auto pi = preintegrate(t_ns - span, t_ns, bias);
+        pi && pi->status() != factors::GyroPreintegration::Status::kNoData)
+      kf->readout_rate_B = so3::log(pi->deltaR()) / toSeconds(span);
+    kf->readout_velocity_B = T_W_B.linear().transpose() * velocity_W_;
+  }
   kf->segment = segment_;
   for (const auto& o : observations) {
     TrackObservation& kept = kf->observations[o.track_id] = o;
@@ -506,7 +571,7 @@ void WindowCore::solveWindow() {
   refreshGyroFactors();
   auto kfs = windowKeyframes();
   seedTerrain(kfs, model_);
-  auto factors = buildFactors(kfs, map_.landmarks, model_, gauge_, &ledger_);
+  auto factors = buildFactors(kfs, map_.landmarks, model_, gauge_, &ledger_, map_.time_offset_s);
   last_solve_ = {};
   last_solve_.keyframes = static_cast<int>(kfs.size());
   for (const auto& f : factors) last_solve_.lidar_factors += f.kind == FactorKind::kLidar;
@@ -518,6 +583,8 @@ void WindowCore::solveWindow() {
   so.linear_solver = options_.linear_solver;
   so.max_iterations = options_.max_iterations;
   so.max_time_s = options_.max_solver_time_s;
+  so.time_offset_s = map_.time_offset_s;
+  so.time_offset_max_s = options_.time_offset_max_s;
   const SolveSummary s = solveFactors(std::move(factors), kfs, map_.landmarks, model_, so);
   last_solve_.residual_blocks = s.residual_blocks;
   last_solve_.iterations = s.iterations;
@@ -591,8 +658,8 @@ void WindowCore::refineAll() {
   std::vector<WindowGauge> gauges = segment_gauges_;
   for (WindowGauge& g : gauges)
     if (auto T_W_B = keyframePose(g.kf_id)) g.T_W_B = *T_W_B;
-  stats_.refine =
-      refineKeyframes(kfs, map_.last_point_W, model_, gauges, options_, label_ground_options_);
+  stats_.refine = refineKeyframes(kfs, map_.last_point_W, model_, gauges, options_,
+                                  label_ground_options_, map_.time_offset_s);
   if (!stats_.refine->usable) note("full refinement failed: the online keyframe poses are kept");
   for (const Keyframe* kf : kfs) frames_.keepPoses(*kf);
 }
@@ -605,11 +672,20 @@ void WindowCore::finish() {
 }
 
 Trajectory WindowCore::trajectory() const {
-  return frames_.trajectory([this](int id) { return keyframeState(id); });
+  return ontoGyroClock(frames_.trajectory([this](int id) { return keyframeState(id); }));
 }
 
 Trajectory WindowCore::keyframes() const {
-  return frames_.keyframes([this](int id) { return keyframeState(id); });
+  return ontoGyroClock(frames_.keyframes([this](int id) { return keyframeState(id); }));
+}
+
+Trajectory WindowCore::ontoGyroClock(Trajectory poses) const {
+  // The images' stamps run ahead of the gyro clock (the robot's, the truth's) by the offset
+  // estimated on top of the rig's; the poses are output at the times the images were taken,
+  // with the latest estimate.
+  const Timestamp shift = gyroShift();
+  for (auto& p : poses) p.t_ns -= shift;
+  return poses;
 }
 
 void WindowCore::countLidar(const Keyframe& kf, EstimatorStats& stats) {
@@ -620,6 +696,7 @@ void WindowCore::countLidar(const Keyframe& kf, EstimatorStats& stats) {
 EstimatorStats WindowCore::stats() const {
   EstimatorStats s = stats_;  // plus the keyframes still in the window
   for (const auto& kf : map_.keyframes) countLidar(*kf, s);
+  if (estimatesTimeOffset(model_)) s.time_offset_s = map_.time_offset_s[0];
   return s;
 }
 

@@ -97,8 +97,19 @@ class WindowCore {
 
  private:
   bool gyroOn() const { return use_gyro_ && !gyro_.empty(); }
+  /// The gyro's rotation over [t0, t1] of image time (the gyro interval moved back by the time
+  /// offset, gyroShift()).
   std::optional<factors::GyroPreintegration> preintegrate(Timestamp t0, Timestamp t1,
                                                           const Vec3& bias) const;
+  /// The same over [t0, t1] of the gyro's clock.
+  std::optional<factors::GyroPreintegration> preintegrateOnGyroClock(Timestamp t0, Timestamp t1,
+                                                                     const Vec3& bias) const;
+  /// The estimated time offset on top of the rig's (0 when not estimated), ns.
+  Timestamp gyroShift() const;
+  /// The scan made instantaneous at its stamp (options_.lidar_deskew and per-beam times).
+  LidarScan deskewed(const LidarScan& scan) const;
+  /// Poses stamped at image times moved to the gyro clock's (by gyroShift()).
+  Trajectory ontoGyroClock(Trajectory poses) const;
   /// The gyro's rotation R_B0_B1 from t0 to t1 at the current bias when it covers the interval
   /// without a gap (the scans' placement).
   std::optional<Mat3> gyroRotation(Timestamp t0, Timestamp t1) const;
@@ -195,6 +206,8 @@ class WindowCore {
   GyroBuffer gyro_;
   GyroSpikeFilter gyro_spikes_;
   static constexpr double kGyroKeepS = 30.0;  // gyro history kept at most (a long stop), s
+  static constexpr double kReshiftS = 0.001;  // a keyframe's gyro interval is integrated again
+                                              // when the time offset moved this far from it, s
   ScanTimeline scans_;
   WindowLidar lidar_;
   WindowInitializer initializer_;

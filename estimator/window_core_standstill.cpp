@@ -48,8 +48,10 @@ int WindowCore::processStill(const VisualFrame& frame, const Prediction& pred,
   velocity_W_.setZero();
   if (initialized_ && !map_.empty()) ref_kf = map_.keyframes.back()->id;
   if (initialized_) still_reference_ = makeReference(frame, e.T_W_B);
-  // Zero-rate update: the raw gyro rotation of a still frame is bias * dt plus noise.
-  if (auto pi0 = preintegrate(last_t_, frame.t_ns, Vec3::Zero());
+  // Zero-rate update: the raw gyro rotation of a still frame is bias * dt plus noise. Taken on
+  // the gyro's clock as the frames' stamps give it (not moved by the time offset: the robot is
+  // still either way, and the samples up to the stamp are there when the frame is).
+  if (auto pi0 = preintegrateOnGyroClock(last_t_, frame.t_ns, Vec3::Zero());
       pi0 && pi0->status() == factors::GyroPreintegration::Status::kOk) {
     still_bias_.add(frame.t_ns, so3::log(pi0->deltaR()), pred.dt);
     if (!initialized_)

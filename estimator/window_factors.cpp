@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "common/so3.hpp"
 #include "factors/bearing_factor.hpp"
 #include "factors/bearing_step_factor.hpp"
 #include "factors/bias_prior_factor.hpp"
@@ -13,6 +14,7 @@
 #include "factors/pose_prior_factor.hpp"
 #include "factors/rotation_tie_factor.hpp"
 #include "factors/terrain_plane_factor.hpp"
+#include "factors/time_offset_factor.hpp"
 
 namespace ovo::estimator {
 namespace {
@@ -77,6 +79,8 @@ WindowModel makeWindowModel(const SensorSetup& setup, const WindowOptions& optio
   WindowModel model;
   const double pixel_sigma = options.pixel_sigma > 0.0 ? options.pixel_sigma : setup.pixel_sigma;
   model.T_B_C = setup.T_B_C;
+  model.rolling_shutter_s = options.rolling_shutter ? setup.rolling_shutter_s : 0.0;
+  model.image_rows = camera::height(setup.camera);
   model.focal_px = camera::focalPx(setup.camera);
   model.pixel_sigma_px = pixel_sigma;
   model.bearing_sigma_rad = pixel_sigma / model.focal_px;
@@ -99,6 +103,7 @@ WindowModel makeWindowModel(const SensorSetup& setup, const WindowOptions& optio
   model.gauge_sigma_rotation_rad = options.gauge_sigma_yaw_rad;
   model.max_rho = 1.0 / (0.5 * options.landmark_min_depth_m);
   model.use_gyro = options.use_gyro && setup.has_gyro;
+  model.time_offset_sigma_s = options.estimate_time_offset ? options.time_offset_sigma_s : 0.0;
   if (options.use_ground_height && setup.camera_height_m && *setup.camera_height_m > 0.0) {
     model.camera_height_m = *setup.camera_height_m;
     model.ground_sigma_m = options.ground_height_sigma_m;
@@ -107,6 +112,15 @@ WindowModel makeWindowModel(const SensorSetup& setup, const WindowOptions& optio
     model.terrain_height_walk = options.terrain_height_walk;
   }
   return model;
+}
+
+SE3 sightingExtrinsics(const Keyframe& kf, const TrackObservation& o, const WindowModel& model) {
+  if (!(model.rolling_shutter_s > 0.0) || !(model.image_rows > 0.0)) return model.T_B_C;
+  const double dt = model.rolling_shutter_s * std::clamp(o.px.y() / model.image_rows, 0.0, 1.0);
+  SE3 T_B0_B = SE3::Identity();  // the body at the row's time, in the keyframe's body frame
+  T_B0_B.linear() = so3::exp(kf.readout_rate_B * dt);
+  T_B0_B.translation() = kf.readout_velocity_B * dt;
+  return T_B0_B * model.T_B_C;
 }
 
 bool usesTerrain(const WindowModel& model) {
@@ -131,7 +145,7 @@ void seedTerrain(const std::vector<Keyframe*>& keyframes, const WindowModel& mod
 std::vector<FactorSpec> buildFactors(const std::vector<Keyframe*>& keyframes,
                                      std::unordered_map<TrackId, Landmark>& landmarks,
                                      const WindowModel& model, const WindowGauge& gauge,
-                                     const FactorLedger* ledger) {
+                                     const FactorLedger* ledger, double* time_offset_s) {
   std::vector<FactorSpec> out;
   const auto kf_of = keyframesById(keyframes);
 
@@ -153,6 +167,11 @@ std::vector<FactorSpec> buildFactors(const std::vector<Keyframe*>& keyframes,
       if (!u || u->u.dot(obs->second.bearing_C) < std::cos(0.2)) continue;  // gross: > 11 deg
       FactorSpec f;
       f.kind = FactorKind::kBearing;
+      const auto anchor_obs = anchor->observations.find(id);
+      const SE3 T_B_Ca = anchor_obs != anchor->observations.end()
+                             ? sightingExtrinsics(*anchor, anchor_obs->second, model)
+                             : model.T_B_C;
+      const SE3 T_B_Cj = sightingExtrinsics(*kf, obs->second, model);
       if (model.bearing_steps && prev != nullptr) {
         const TrackObservation& oi = prev->observations.at(id);
         const double frames = std::max(0, obs->second.age - oi.age);
@@ -160,7 +179,8 @@ std::vector<FactorSpec> buildFactors(const std::vector<Keyframe*>& keyframes,
         const double sigma_px =
             sightingSigmaPx(2.0 * model.track_white_px * model.track_white_px, frames, model);
         f.cost = std::make_unique<factors::BearingStepFactor>(
-            lm.bearing_anchor_C, oi.bearing_C, obs->second.bearing_C, model.T_B_C,
+            lm.bearing_anchor_C, oi.bearing_C, obs->second.bearing_C, T_B_Ca,
+            sightingExtrinsics(*prev, oi, model), T_B_Cj,
             sightingSqrtInformation(obs->second, sigma_px, model));
         f.blocks = {anchor->q_W_B, anchor->p_W_B, prev->q_W_B, prev->p_W_B,
                     kf->q_W_B,     kf->p_W_B,     lm.rho};
@@ -169,7 +189,7 @@ std::vector<FactorSpec> buildFactors(const std::vector<Keyframe*>& keyframes,
         // anchor's and this observation grows with the frames between them.
         const double sigma_px = anchorSigmaPx(*anchor, obs->second, model);
         f.cost = std::make_unique<factors::BearingFactor>(
-            lm.bearing_anchor_C, obs->second.bearing_C, model.T_B_C,
+            lm.bearing_anchor_C, obs->second.bearing_C, T_B_Ca, T_B_Cj,
             sightingSqrtInformation(obs->second, sigma_px, model));
         f.blocks = {anchor->q_W_B, anchor->p_W_B, kf->q_W_B, kf->p_W_B, lm.rho};
       }
@@ -255,6 +275,8 @@ std::vector<FactorSpec> buildFactors(const std::vector<Keyframe*>& keyframes,
   }
 
   // Gyro and bias factors between consecutive keyframes of one segment.
+  const bool with_offset = time_offset_s != nullptr && estimatesTimeOffset(model);
+  bool offset_used = false;
   if (model.use_gyro) {
     for (std::size_t k = 1; k < keyframes.size(); ++k) {
       Keyframe* i = keyframes[k - 1];
@@ -262,8 +284,16 @@ std::vector<FactorSpec> buildFactors(const std::vector<Keyframe*>& keyframes,
       if (i->segment != j->segment || !j->preint_from_prev) continue;
       FactorSpec g;
       g.kind = FactorKind::kGyro;
-      g.cost = std::make_unique<factors::GyroFactor>(j->preint_from_prev);
       g.blocks = {gyroRotation(*i, model), gyroRotation(*j, model), i->b_g};
+      if (with_offset) {
+        // The offset the preintegration was made at: its interval starts at t_i - offset.
+        const double td_lin = toSeconds(i->t_ns - j->preint_from_prev->tStart());
+        g.cost = std::make_unique<factors::GyroTimeOffsetFactor>(j->preint_from_prev, td_lin);
+        g.blocks.push_back(time_offset_s);
+        offset_used = true;
+      } else {
+        g.cost = std::make_unique<factors::GyroFactor>(j->preint_from_prev);
+      }
       g.kf_id = j->id;
       out.push_back(std::move(g));
       FactorSpec w;
@@ -320,6 +350,17 @@ std::vector<FactorSpec> buildFactors(const std::vector<Keyframe*>& keyframes,
       b.kf_id = kf->id;
       out.push_back(std::move(b));
     }
+  }
+  if (offset_used || (with_offset && gauge.marginalization &&
+                      std::count(gauge.marginalization->keptBlocks().begin(),
+                                 gauge.marginalization->keptBlocks().end(), time_offset_s) > 0)) {
+    // About the rig's value, every solve: a plausibility bound that holds the offset while the
+    // motion does not show it (a constant rate). It touches no keyframe: never marginalised.
+    FactorSpec t;
+    t.kind = FactorKind::kTimeOffsetPrior;
+    t.cost = std::make_unique<factors::TimeOffsetPriorFactor>(0.0, model.time_offset_sigma_s);
+    t.blocks = {time_offset_s};
+    out.push_back(std::move(t));
   }
   if (gauge.marginalization) {
     FactorSpec m;

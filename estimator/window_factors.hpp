@@ -46,6 +46,13 @@ struct WindowModel {
   double min_rho = 0.0;        // 1/m: points at infinity are kept (they hold the rotations)
   double max_rho = 1.0 / 0.1;  // 1/m: nearer landmarks are removed
   bool use_gyro = true;
+  // A rolling shutter: image row v of image_rows is read out at the frame's time + v / rows *
+  // this (s; 0: a global shutter, the rig's T_B_C for every sighting).
+  double rolling_shutter_s = 0.0;
+  double image_rows = 480.0;
+  // The camera-gyro time offset on top of the rig's (WindowMap::time_offset_s): estimated with
+  // this prior sigma about 0 when > 0 and there is a gyro, else held at its value.
+  double time_offset_sigma_s = 0.0;
   double camera_height_m = 0.0;  // ground landmarks' depth below the camera, m (<= 0: no factor)
   double ground_sigma_m = 0.03;  // camera-height factor noise, m
   double ground_huber = 2.0;     // its Huber threshold, sigmas
@@ -67,17 +74,18 @@ struct WindowGauge {
 };
 
 enum class FactorKind {
-  kBearing,     // a sighting of a landmark (anchor-relative or a step from the previous one)
-  kGyro,        // preintegrated gyro rotation from the previous keyframe
-  kBiasWalk,    // gyro bias random walk from the previous keyframe
-  kBiasPrior,   // the gauge keyframe's bias prior
-  kZeroRate,    // a standstill's zero-rate update on a keyframe's bias
-  kPosePrior,   // the gauge keyframe's pose prior
-  kLidar,       // a LiDAR range (or ground-plane height) to a landmark
-  kMarginal,    // the marginalisation prior
-  kGround,      // a ground landmark's height below its anchor camera
-  kTerrain,     // a ground landmark on its anchor's terrain plane (track) or the plane's walk
-  kRotationTie  // a keyframe's vision orientation tied to its gyro chain's
+  kBearing,         // a sighting of a landmark (anchor-relative or a step from the previous one)
+  kGyro,            // preintegrated gyro rotation from the previous keyframe
+  kBiasWalk,        // gyro bias random walk from the previous keyframe
+  kBiasPrior,       // the gauge keyframe's bias prior
+  kZeroRate,        // a standstill's zero-rate update on a keyframe's bias
+  kPosePrior,       // the gauge keyframe's pose prior
+  kLidar,           // a LiDAR range (or ground-plane height) to a landmark
+  kMarginal,        // the marginalisation prior
+  kGround,          // a ground landmark's height below its anchor camera
+  kTerrain,         // a ground landmark on its anchor's terrain plane (track) or the plane's walk
+  kRotationTie,     // a keyframe's vision orientation tied to its gyro chain's
+  kTimeOffsetPrior  // the camera-gyro time offset's prior (stays in the window)
 };
 
 /// The measurement a factor stands for: its kind, its landmark (-1: none) and its keyframe (the
@@ -139,6 +147,11 @@ double anchorSigmaPx(const Keyframe& anchor, const TrackObservation& o, const Wi
 /// over sigma_px (bearing_sigma_from_camera and known), else focal_px / sigma_px.
 Mat2 sightingSqrtInformation(const TrackObservation& o, double sigma_px, const WindowModel& model);
 
+/// The camera's pose in the body of keyframe kf when it took sighting o: the rig's T_B_C, moved
+/// by the body's motion from the keyframe's time to o's row's (Keyframe::readout_rate_B and
+/// readout_velocity_B over rolling_shutter_s * row / image_rows) with a rolling shutter.
+SE3 sightingExtrinsics(const Keyframe& kf, const TrackObservation& o, const WindowModel& model);
+
 /// True when the model gives keyframes terrain planes (terrain_planes and a camera height).
 bool usesTerrain(const WindowModel& model);
 /// Seeds the terrain plane of each keyframe that has none: the previous keyframe's, else the
@@ -147,11 +160,19 @@ void seedTerrain(const std::vector<Keyframe*>& keyframes, const WindowModel& mod
 
 /// All factors over `keyframes` (time order) and `landmarks`. Landmarks whose anchor is not among
 /// the keyframes, or with fewer than one usable non-anchor observation, get no factor; nor do
-/// keyframes whose terrain plane is not seeded, nor measurements the ledger holds.
+/// keyframes whose terrain plane is not seeded, nor measurements the ledger holds. With a
+/// time_offset_s block (WindowMap::time_offset_s) and estimatesTimeOffset(model), the gyro
+/// factors take it as a state and it gets its prior.
 std::vector<FactorSpec> buildFactors(const std::vector<Keyframe*>& keyframes,
                                      std::unordered_map<TrackId, Landmark>& landmarks,
                                      const WindowModel& model, const WindowGauge& gauge,
-                                     const FactorLedger* ledger = nullptr);
+                                     const FactorLedger* ledger = nullptr,
+                                     double* time_offset_s = nullptr);
+
+/// True when the model estimates the camera-gyro time offset (a gyro and a prior sigma).
+inline bool estimatesTimeOffset(const WindowModel& model) {
+  return model.use_gyro && model.time_offset_sigma_s > 0.0;
+}
 
 /// True when the keyframes' gyro factors see an orientation of their own (q_W_G), tied to q_W_B.
 bool tiedRotations(const WindowModel& model);

@@ -86,6 +86,11 @@ struct Keyframe {
     double sigma_radps = 1.0;  // per axis
   };
   std::optional<ZeroRate> zero_rate;
+  /// The body's motion while a rolling shutter reads the image out (the keyframe's pose is its
+  /// first row's): angular rate and velocity in the body frame at the keyframe (zero with a
+  /// global shutter; see sightingExtrinsics in window_factors.hpp).
+  Vec3 readout_rate_B = Vec3::Zero();
+  Vec3 readout_velocity_B = Vec3::Zero();
 
   SE3 pose() const;                // as the vision sees it: q_W_B, p_W_B
   SE3 bodyPose() const;            // the body's estimate: q_W_G, p_W_B (the output)
@@ -115,6 +120,10 @@ class WindowMap {
   std::unordered_map<TrackId, Landmark> landmarks;
   std::vector<std::unique_ptr<Keyframe>> archive;  // marginalised keyframes (refine full only)
   std::unordered_map<TrackId, Vec3> last_point_W;  // last estimate of every landmark (refine)
+  /// The camera-gyro time offset on top of the rig's, s (image stamp minus the gyro clock's time
+  /// of the image): one state for the whole run, in the marginalisation prior once a gyro factor
+  /// has left the window. The window's gyro intervals are [t - this, t' - this].
+  double time_offset_s[1] = {0.0};
 
   Keyframe* find(int kf_id);
   const Keyframe* find(int kf_id) const;

@@ -54,6 +54,10 @@ WindowOptions readWindowOptions(const Config& c) {
       c.getInRange(p + "reinit_bias_sigma_radps", o.reinit_bias_sigma_radps, 1e-9, 10.0);
   o.gyro_bias_prior_sigma_radps =
       c.getInRange(p + "gyro_bias_prior_sigma_radps", o.gyro_bias_prior_sigma_radps, 1e-9, 10.0);
+  o.estimate_time_offset = c.get<bool>(p + "estimate_time_offset", o.estimate_time_offset);
+  o.rolling_shutter = c.get<bool>(p + "rolling_shutter", o.rolling_shutter);
+  o.time_offset_sigma_s = c.getInRange(p + "time_offset_sigma_s", o.time_offset_sigma_s, 1e-6, 1.0);
+  o.time_offset_max_s = c.getInRange(p + "time_offset_max_s", o.time_offset_max_s, 1e-4, 0.5);
   o.gauge_sigma_position_m =
       c.getInRange(p + "gauge_sigma_position_m", o.gauge_sigma_position_m, 1e-9, 1e3);
   o.gauge_sigma_yaw_rad =
@@ -82,6 +86,7 @@ WindowOptions readWindowOptions(const Config& c) {
       c.getIntInRange(p + "lidar_edge_neighbours", o.lidar_edge_neighbours, 0, 20);
   o.lidar_scan_time_tol_s =
       c.getInRange(p + "lidar_scan_time_tol_s", o.lidar_scan_time_tol_s, 0.0, 1.0);
+  o.lidar_deskew = c.get<bool>(p + "lidar_deskew", o.lidar_deskew);
   o.lidar_scan_max_age_s =
       c.getInRange(p + "lidar_scan_max_age_s", o.lidar_scan_max_age_s, 0.0, 1.0);
   o.lidar_min_associations =

@@ -86,9 +86,18 @@ struct WindowOptions {
   double gyro_max_spike_s = 0.05;       // ... for at most this long, s: a jump that lasts is real
   double gyro_bias_random_walk = -1.0;  // rad/s^2/sqrt(Hz); < 0: the rig's value
   double gyro_bias_prior_sigma_radps = 0.02;  // prior on the first keyframe's bias, rad/s
-  double vision_rotation_sigma_rad = 1e-3;    // a keyframe's orientation as the vision sees it is
-                                              // tied to the gyro chain's with this sigma (0: one
-                                              // orientation for both), rad
+  // The camera-gyro time offset as a state of the window (factors/time_offset_factor.hpp), on
+  // top of the rig's camera.time_offset_s (the runners move the image stamps by that first).
+  bool estimate_time_offset = true;
+  double time_offset_sigma_s = 0.02;  // its prior about the rig's value, s
+  double time_offset_max_s = 0.1;     // and the furthest it may move from it, s
+  // A rolling shutter (the rig's camera.rolling_shutter_s > 0): each sighting is predicted from
+  // the camera's pose at its row's time (the keyframe's pose moved by the gyro's rate and the
+  // velocity); false: every row at the frame's time.
+  bool rolling_shutter = true;
+  double vision_rotation_sigma_rad = 1e-3;  // a keyframe's orientation as the vision sees it is
+                                            // tied to the gyro chain's with this sigma (0: one
+                                            // orientation for both), rad
   double reinit_bias_sigma_radps = 1e-3;   // ... after a loss: the previous estimate's sigma, rad/s
   double gauge_sigma_position_m = 1e-4;    // first-keyframe pose prior before the first marg., m
   double gauge_sigma_yaw_rad = 1e-4;       // ... and its yaw/roll/pitch sigma, rad
@@ -141,6 +150,9 @@ struct WindowOptions {
   // A frame without one takes the latest scan up to this much older, its LiDAR pose moved by the
   // motion since (a LiDAR out of step with the camera; scanFor); 0: none, s.
   double lidar_scan_max_age_s = 0.05;
+  // A scan with per-beam times (a swept LiDAR) is made instantaneous at its stamp from the gyro
+  // and the velocity (estimator/lidar_deskew.hpp) when it arrives.
+  bool lidar_deskew = true;
   int lidar_min_associations = 8;        // fewer (or disagreeing) at initialisation: ground plane
   double lidar_rescale_ratio = 0.1;      // the window's landmark distances over the LiDAR's
                                          // ranges to them this far from 1: the window is

@@ -27,6 +27,8 @@ std::unique_ptr<Keyframe> batchCopy(const Keyframe& kf) {
   b->preint_from_prev = kf.preint_from_prev;
   b->segment = kf.segment;
   b->zero_rate = kf.zero_rate;
+  b->readout_rate_B = kf.readout_rate_B;  // a rolling shutter's rows
+  b->readout_velocity_B = kf.readout_velocity_B;
   return b;
 }
 
@@ -103,8 +105,10 @@ RefineInfo refineKeyframes(const std::vector<Keyframe*>& keyframes,
                            const std::unordered_map<TrackId, Vec3>& points_W,
                            const WindowModel& window_model,
                            const std::vector<WindowGauge>& segment_gauges,
-                           const WindowOptions& options, const GroundPlaneOptions& ground_options) {
+                           const WindowOptions& options, const GroundPlaneOptions& ground_options,
+                           const double* time_offset_s) {
   WindowModel model = window_model;
+  double td[1] = {time_offset_s ? time_offset_s[0] : 0.0};               // the batch's copy, held
   model.terrain_planes = model.terrain_planes && options.refine_ground;  // no ground: no terrain
   model.bearing_steps = useBearingSteps(options.refine_bearing_steps, options);
   RefineInfo info;
@@ -190,7 +194,8 @@ RefineInfo refineKeyframes(const std::vector<Keyframe*>& keyframes,
 
   const int passes = std::max(1, options.refine_passes);
   for (int pass = 0; pass < passes; ++pass) {
-    auto factors = buildFactors(kfs, landmarks, model, gauge);
+    auto factors =
+        buildFactors(kfs, landmarks, model, gauge, nullptr, time_offset_s ? td : nullptr);
     // Each later segment keeps its placement (nothing links segments but the gyro) and the bias
     // prior it started with.
     for (std::size_t k = 1; k < kfs.size(); ++k) {
@@ -223,6 +228,12 @@ RefineInfo refineKeyframes(const std::vector<Keyframe*>& keyframes,
     SolveOptions so;
     so.linear_solver = LinearSolver::kSparseSchur;
     so.max_iterations = options.refine_iterations;
+    so.time_offset_s = time_offset_s ? td : nullptr;
+    so.time_offset_max_s = options.time_offset_max_s;
+    // Held at the online estimate: the gyro intervals of the keyframes that left the window were
+    // made at the offset of their time (the samples are gone), and the first-order shift of the
+    // earliest, made before the estimate settled, is too coarse to estimate the offset from.
+    so.hold_time_offset = true;
     const SolveSummary s = solveFactors(std::move(factors), kfs, landmarks, model, so);
     ++info.passes;
     info.iterations += s.iterations;

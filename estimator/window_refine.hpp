@@ -31,11 +31,13 @@ void labelGroundLandmarks(std::unordered_map<TrackId, Landmark>& landmarks,
 /// window estimate). `segment_gauges` are the gauges each segment started with: the first
 /// keyframe's holds the run's gauge; the first keyframe of each later segment keeps its pose with
 /// a looser prior (only the gyro links segments) and its bias prior. Without a gauge for the
-/// first keyframe it is held at its pose with the model's bias prior. Writes the poses and biases
-/// back only when usable.
+/// first keyframe it is held at its pose with the model's bias prior. With a time_offset_s block
+/// (the window's, estimatesTimeOffset(model)) the gyro factors shift their intervals to it (held
+/// at its value). Writes the poses and biases back only when usable.
 RefineInfo refineKeyframes(const std::vector<Keyframe*>& keyframes,
                            const std::unordered_map<TrackId, Vec3>& points_W,
                            const WindowModel& model, const std::vector<WindowGauge>& segment_gauges,
-                           const WindowOptions& options, const GroundPlaneOptions& ground_options);
+                           const WindowOptions& options, const GroundPlaneOptions& ground_options,
+                           const double* time_offset_s = nullptr);
 
 }  // namespace ovo::estimator

@@ -31,6 +31,7 @@ SolveSummary solveFactors(std::vector<FactorSpec> factors, const std::vector<Key
   }
   std::unordered_map<TrackId, double> rho_backup;
   for (const auto& [id, lm] : landmarks) rho_backup[id] = lm.rho[0];
+  const double td_backup = options.time_offset_s ? options.time_offset_s[0] : 0.0;
 
   ceres::Problem problem;
   for (Keyframe* kf : keyframes) {
@@ -58,6 +59,15 @@ SolveSummary solveFactors(std::vector<FactorSpec> factors, const std::vector<Key
     lm.rho[0] = std::clamp(lm.rho[0], model.min_rho, model.max_rho);
   }
 
+  if (options.time_offset_s && problem.HasParameterBlock(options.time_offset_s)) {
+    if (options.hold_time_offset) {
+      problem.SetParameterBlockConstant(options.time_offset_s);
+    } else {
+      problem.SetParameterLowerBound(options.time_offset_s, 0, -options.time_offset_max_s);
+      problem.SetParameterUpperBound(options.time_offset_s, 0, options.time_offset_max_s);
+    }
+  }
+
   ceres::Solver::Options so;
   so.linear_solver_type = options.linear_solver == LinearSolver::kSparseSchur ? ceres::SPARSE_SCHUR
                                                                               : ceres::DENSE_SCHUR;
@@ -81,7 +91,9 @@ SolveSummary solveFactors(std::vector<FactorSpec> factors, const std::vector<Key
                            kf->b_g[2] + kf->terrain[0] + kf->terrain[1] + kf->terrain[2] +
                            kf->q_W_G[0] + kf->q_W_G[1] + kf->q_W_G[2] + kf->q_W_G[3]);
   for (const auto& [id, lm] : landmarks) finite = finite && std::isfinite(lm.rho[0]);
+  if (options.time_offset_s) finite = finite && std::isfinite(options.time_offset_s[0]);
   if (!finite) {
+    if (options.time_offset_s) options.time_offset_s[0] = td_backup;
     for (std::size_t k = 0; k < keyframes.size(); ++k) {
       std::copy_n(kf_backup[k].q, 4, keyframes[k]->q_W_B);
       std::copy_n(kf_backup[k].g, 4, keyframes[k]->q_W_G);

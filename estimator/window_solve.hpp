@@ -16,6 +16,9 @@ struct SolveOptions {
   int max_iterations = 8;
   double max_time_s = 0.0;  // 0: unlimited
   int num_threads = 1;
+  double* time_offset_s = nullptr;  // the window's time offset block when the factors hold it:
+  double time_offset_max_s = 0.1;   // bounded to +- this, and restored with the rest on failure
+  bool hold_time_offset = false;    // ... or held at its value
 };
 
 struct SolveSummary {

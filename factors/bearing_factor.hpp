@@ -26,6 +26,13 @@ std::optional<PredictedBearing> predictBearing(const Vec3& bearing_Ca, const Mat
                                                const Vec3& t_B_C, const double* q_W_Ba,
                                                const double* p_W_Ba, const double* q_W_Bj,
                                                const double* p_W_Bj, double rho, bool jacobian);
+/// The same with the camera's pose in the body at each sighting, T_B_Ca at the anchor's and T_B_Cj
+/// at keyframe j's (a rolling shutter's row: the rig's T_B_C moved by the body's motion from the
+/// keyframe's time to the row's; the Jacobian holds them fixed).
+std::optional<PredictedBearing> predictBearing(const Vec3& bearing_Ca, const SE3& T_B_Ca,
+                                               const SE3& T_B_Cj, const double* q_W_Ba,
+                                               const double* p_W_Ba, const double* q_W_Bj,
+                                               const double* p_W_Bj, double rho, bool jacobian);
 
 /// Residual = [t1 t2]^T u / sigma_rad, where u is the predicted unit bearing of the landmark in C_j
 /// (predictBearing) and (t1, t2) an orthonormal basis of the tangent plane of the measured bearing
@@ -41,6 +48,10 @@ class BearingFactor final : public ceres::SizedCostFunction<2, 4, 3, 4, 3, 1> {
   /// which whitens the residual as the image error in pixels would be.
   BearingFactor(const Vec3& bearing_Ca, const Vec3& bearing_Cj, const SE3& T_B_C,
                 const Mat2& sqrt_information);
+  /// The same with the camera's pose in the body at each sighting (predictBearing's T_B_Ca,
+  /// T_B_Cj).
+  BearingFactor(const Vec3& bearing_Ca, const Vec3& bearing_Cj, const SE3& T_B_Ca,
+                const SE3& T_B_Cj, const Mat2& sqrt_information);
 
   bool Evaluate(double const* const* parameters, double* residuals,
                 double** jacobians) const override;
@@ -54,8 +65,7 @@ class BearingFactor final : public ceres::SizedCostFunction<2, 4, 3, 4, 3, 1> {
  private:
   Vec3 bearing_Ca_;
   Eigen::Matrix<double, 2, 3> tangent_;  // rows t1^T, t2^T of b_j's tangent plane, / sigma
-  Mat3 R_B_C_;
-  Vec3 t_B_C_;
+  SE3 T_B_Ca_, T_B_Cj_;
 };
 
 }  // namespace ovo::factors

@@ -7,25 +7,33 @@ BearingStepFactor::BearingStepFactor(const Vec3& bearing_Ca, const Vec3& bearing
     : bearing_Ca_(bearing_Ca.normalized()),
       bearing_Ci_(bearing_Ci.normalized()),
       tangent_(BearingFactor::tangentBasis(bearing_Ck.normalized()) / sigma_rad),
-      R_B_C_(T_B_C.rotation()),
-      t_B_C_(T_B_C.translation()) {}
+      T_B_Ca_(T_B_C),
+      T_B_Ci_(T_B_C),
+      T_B_Ck_(T_B_C) {}
 
 BearingStepFactor::BearingStepFactor(const Vec3& bearing_Ca, const Vec3& bearing_Ci,
                                      const Vec3& bearing_Ck, const SE3& T_B_C,
                                      const Mat2& sqrt_information)
+    : BearingStepFactor(bearing_Ca, bearing_Ci, bearing_Ck, T_B_C, T_B_C, T_B_C, sqrt_information) {
+}
+
+BearingStepFactor::BearingStepFactor(const Vec3& bearing_Ca, const Vec3& bearing_Ci,
+                                     const Vec3& bearing_Ck, const SE3& T_B_Ca, const SE3& T_B_Ci,
+                                     const SE3& T_B_Ck, const Mat2& sqrt_information)
     : bearing_Ca_(bearing_Ca.normalized()),
       bearing_Ci_(bearing_Ci.normalized()),
       tangent_(sqrt_information * BearingFactor::tangentBasis(bearing_Ck.normalized())),
-      R_B_C_(T_B_C.rotation()),
-      t_B_C_(T_B_C.translation()) {}
+      T_B_Ca_(T_B_Ca),
+      T_B_Ci_(T_B_Ci),
+      T_B_Ck_(T_B_Ck) {}
 
 bool BearingStepFactor::Evaluate(double const* const* parameters, double* residuals,
                                  double** jacobians) const {
   const double rho = parameters[6][0];
   const bool jac = jacobians != nullptr;
-  const auto i = predictBearing(bearing_Ca_, R_B_C_, t_B_C_, parameters[0], parameters[1],
+  const auto i = predictBearing(bearing_Ca_, T_B_Ca_, T_B_Ci_, parameters[0], parameters[1],
                                 parameters[2], parameters[3], rho, jac);
-  const auto k = predictBearing(bearing_Ca_, R_B_C_, t_B_C_, parameters[0], parameters[1],
+  const auto k = predictBearing(bearing_Ca_, T_B_Ca_, T_B_Ck_, parameters[0], parameters[1],
                                 parameters[4], parameters[5], rho, jac);
   if (!i || !k) return false;
   // T_k b_k = 0, so b_k drops out of the residual.

@@ -25,6 +25,11 @@ class BearingStepFactor final : public ceres::SizedCostFunction<2, 4, 3, 4, 3, 4
   /// axes (r = W T_k (...)).
   BearingStepFactor(const Vec3& bearing_Ca, const Vec3& bearing_Ci, const Vec3& bearing_Ck,
                     const SE3& T_B_C, const Mat2& sqrt_information);
+  /// The same with the camera's pose in the body at each sighting (predictBearing's: a rolling
+  /// shutter's rows).
+  BearingStepFactor(const Vec3& bearing_Ca, const Vec3& bearing_Ci, const Vec3& bearing_Ck,
+                    const SE3& T_B_Ca, const SE3& T_B_Ci, const SE3& T_B_Ck,
+                    const Mat2& sqrt_information);
 
   bool Evaluate(double const* const* parameters, double* residuals,
                 double** jacobians) const override;
@@ -32,8 +37,7 @@ class BearingStepFactor final : public ceres::SizedCostFunction<2, 4, 3, 4, 3, 4
  private:
   Vec3 bearing_Ca_, bearing_Ci_;
   Eigen::Matrix<double, 2, 3> tangent_;  // rows t1^T, t2^T of b_k's tangent plane, / sigma
-  Mat3 R_B_C_;
-  Vec3 t_B_C_;
+  SE3 T_B_Ca_, T_B_Ci_, T_B_Ck_;
 };
 
 }  // namespace ovo::factors

@@ -79,6 +79,10 @@ class GyroPreintegration {
   double longestGapSeconds() const { return longest_gap_s_; }
   /// Number of real gyro samples strictly inside (t_i, t_j).
   int numSamples() const { return num_inside_; }
+  /// The measured rate (bias not removed) at t_i and at t_j, as integrated (interpolated between
+  /// the samples around them; zero without data).
+  Vec3 rateAtStart() const { return knots_.empty() ? Vec3::Zero() : knots_.front().w_radps; }
+  Vec3 rateAtEnd() const { return knots_.empty() ? Vec3::Zero() : knots_.back().w_radps; }
 
  private:
   struct Knot {

@@ -285,6 +285,8 @@ ReportInputs sampleReport() {
   }
   in.metrics = {{"frames", 60},
                 {"ate_rmse_m", 0.05},
+                {"time_offset_s", 0.0191},
+                {"time_offset_estimated", true},
                 {"timing", {{"wall_s", 1.5}, {"keyframe_ms_p90", 61.5}, {"cpu_s", 2.25}}}};
   in.config_yaml = "window:\n  size: 10   # <keyframes> & more\n";
   return in;
@@ -306,6 +308,9 @@ TEST(Report, HasEveryPlotAsWellFormedSvgWithTheMetricsAndTheConfiguration) {
   EXPECT_NE(html.find("keyframe (solve + marginalisation)"), std::string::npos);
   EXPECT_NE(html.find("keyframe solve p90"), std::string::npos);
   EXPECT_NE(html.find("CPU (user + system)"), std::string::npos);
+  // Issue 42: the window's estimate of the camera-gyro time offset, in ms.
+  EXPECT_NE(html.find("19.1 ms"), std::string::npos);
+  EXPECT_NE(html.find("camera-gyro time offset (estimated)"), std::string::npos);
   EXPECT_NE(html.find("# &lt;keyframes&gt; &amp; more"), std::string::npos);
   EXPECT_NE(html.find("/data/&lt;vineyard&gt; &amp; co"), std::string::npos);
   // Self-contained: no scripts, no links to anything outside the page.

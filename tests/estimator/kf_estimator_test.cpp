@@ -42,11 +42,6 @@ Timestamp startOfMotion(const SimSequence& seq) {
   return gt.back().t_ns;
 }
 
-bool allPosesFinite(const Trajectory& trajectory) {
-  return std::all_of(trajectory.begin(), trajectory.end(),
-                     [](const StampedPose& p) { return allFinite(p.T_W_B); });
-}
-
 bool hasNote(const estimator::EstimatorStats& stats, const std::string& text) {
   return std::any_of(stats.notes.begin(), stats.notes.end(),
                      [&](const std::string& n) { return n.find(text) != std::string::npos; });

@@ -101,6 +101,11 @@ inline EstimatorRun runEstimator(const std::string& name, const SimSequence& seq
   return run;
 }
 
+inline bool allPosesFinite(const Trajectory& trajectory) {
+  return std::all_of(trajectory.begin(), trajectory.end(),
+                     [](const StampedPose& p) { return allFinite(p.T_W_B); });
+}
+
 /// The metrics of `ovo run` that the comparisons use.
 struct RunScores {
   double ate_m = 0.0;          // SE(3)-aligned ATE RMSE

@@ -870,11 +870,14 @@ TEST(WindowCore, FullRefinementMatchesTheOnlineWindow) {
   // frames the gyro's rotation (wave 2, #40), it beats the batch with anchor factors: measured
   // position sums online / batch 0.0683 / 0.0809 m (anchors/anchors), 0.0677 / 0.0889 m
   // (steps/anchors), 0.0677 / 0.0436 m (steps/steps); rotation 0.393 / 0.667 deg (steps/anchors),
-  // 0.393 / 0.423 deg (steps/steps). The bounds hold those ratios (a known weakness of the batch's
-  // anchor factors over 40-frame tracks, not a target).
+  // 0.393 / 0.423 deg (steps/steps). With the time offset estimated online (wave 2, #42; the
+  // batch estimates it too) the online window with bearing steps gained again: 0.0754 / 0.0966 m
+  // (anchors/anchors), 0.0524 / 0.0915 m (steps/anchors), 0.0524 / 0.0576 m (steps/steps). The
+  // bounds hold those ratios (a known weakness of the batch's anchor factors over 40-frame
+  // tracks, not a target).
   for (const Models m : {Models{false, false, "anchors/anchors", 1.4, 2.0},
-                         Models{true, false, "steps/anchors", 1.4, 2.0},
-                         Models{true, true, "steps/steps", 1.1, 1.3}}) {
+                         Models{true, false, "steps/anchors", 1.9, 2.0},
+                         Models{true, true, "steps/steps", 1.2, 1.3}}) {
     SCOPED_TRACE(m.name);
     double online_sum = 0.0, full_sum = 0.0, rot_online_sum = 0.0, rot_full_sum = 0.0;
     const std::vector<std::uint32_t> seeds = {2, 3, 4, 5, 6};
@@ -950,7 +953,9 @@ TEST(WindowCore, BothSightingModelsFollowTheTracksCreep) {
   // Measured over seeds 2..7 of the 12 s creep drive (position RMSE sums): anchor factors 0.0750
   // m, steps 0.0834 m (0.0701 and 0.0705 with window.bearing_sigma_from_camera). Before, with a
   // fixed 0.5 deg gate that pruned the late sightings of long tracks, anchor factors gave
-  // 0.0996 m and steps 0.0816 m.
+  // 0.0996 m and steps 0.0816 m. With the time offset estimated (wave 2, #42: the drives hold
+  // little angular acceleration, and the estimate wanders by 1-4 ms about the true 0) anchor
+  // factors give 0.0874 m and steps 0.0679 m.
   double anchor_sum = 0.0, steps_sum = 0.0;
   for (std::uint32_t seed = 2; seed <= 7; ++seed) {
     SyntheticOptions o;
@@ -972,8 +977,8 @@ TEST(WindowCore, BothSightingModelsFollowTheTracksCreep) {
     anchor_sum += ra;
     steps_sum += rb;
   }
-  EXPECT_LT(anchor_sum, 0.085);
-  EXPECT_LT(steps_sum, 0.09);
+  EXPECT_LT(anchor_sum, 0.095);
+  EXPECT_LT(steps_sum, 0.08);
 }
 
 }  // namespace

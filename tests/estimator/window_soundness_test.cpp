@@ -16,8 +16,8 @@
 
 #include "common/so3.hpp"
 #include "estimator/window_core.hpp"
-#include "estimator/window_marginalize.hpp"
 #include "estimator/window_landmarks.hpp"
+#include "estimator/window_marginalize.hpp"
 #include "estimator/window_rescale.hpp"
 #include "factors/bearing_factor.hpp"
 #include "tests/estimator/window_synthetic.hpp"
@@ -138,24 +138,38 @@ TEST(WindowRescale, EveryFrameOfTheWindowScalesWithIt) {
   EXPECT_DOUBLE_EQ(velocity.x(), 1.2);
 }
 
-// The estimator's gyro buffer holds what later preintegrations need: about a second while the
-// robot drives (keyframes at most kf_max_interval_s apart), not the whole run (200 Hz, 40 MB an
-// hour); through a 2 s stop it grows by the stop and shrinks again.
+// The estimator's gyro buffer holds what later preintegrations need, not the whole run (200 Hz,
+// 40 MB an hour): about a second while the robot drives (keyframes at most kf_max_interval_s
+// apart); through a 2 s stop it grows by the stop and shrinks again. With the time offset
+// estimated (the default) it also holds the window's keyframes' span, to integrate their
+// intervals again when the offset moves: a few seconds, the same after 20 s and after 40 s.
 TEST(WindowMemory, TheGyroBufferStaysBounded) {
-  test::SyntheticOptions o;
-  o.duration_s = 20.0;
-  o.stop_from_s = 8.0;
-  o.stop_to_s = 10.0;
-  const auto seq = sequence(o);
-  WindowCore core(seq.setup, WindowOptions{});
-  std::size_t most = 0, at_end = 0;
-  test::feedSequence(seq, core, [&](std::size_t i, const FrameEstimate&) {
-    most = std::max(most, core.gyroSamplesHeld());
-    if (i + 1 == seq.frames.size()) at_end = core.gyroSamplesHeld();
-  });
-  const double rate_hz = o.gyro_rate_hz;
-  EXPECT_LT(static_cast<double>(most), 4.0 * rate_hz);  // the 2 s stop and a keyframe interval
-  EXPECT_LT(static_cast<double>(at_end), 1.5 * rate_hz);
+  const auto held = [](double duration_s, bool estimate_offset) {
+    test::SyntheticOptions o;
+    o.duration_s = duration_s;
+    o.stop_from_s = 8.0;
+    o.stop_to_s = 10.0;
+    const auto seq = sequence(o);
+    WindowOptions options;
+    options.estimate_time_offset = estimate_offset;
+    WindowCore core(seq.setup, options);
+    std::pair<double, double> most_end{0.0, 0.0};  // seconds of samples: most, at the end
+    test::feedSequence(seq, core, [&](std::size_t i, const FrameEstimate&) {
+      const double s = static_cast<double>(core.gyroSamplesHeld()) / o.gyro_rate_hz;
+      most_end.first = std::max(most_end.first, s);
+      if (i + 1 == seq.frames.size()) most_end.second = s;
+    });
+    return most_end;
+  };
+  const auto plain = held(20.0, false);
+  EXPECT_LT(plain.first, 4.0);  // the 2 s stop and a keyframe interval
+  EXPECT_LT(plain.second, 1.5);
+  const auto short_run = held(20.0, true), long_run = held(40.0, true);
+  RecordProperty("held_s_20", std::to_string(short_run.second));
+  RecordProperty("held_s_40", std::to_string(long_run.second));
+  EXPECT_LT(short_run.first, 10.0);
+  EXPECT_LT(long_run.first, 10.0);
+  EXPECT_LT(long_run.second, short_run.second + 1.0);
 }
 
 // Online, the gyro may reach the estimator after its frame: a keyframe's preintegration is then
@@ -323,8 +337,8 @@ TEST(WindowJacobians, EveryResidualBlockOfARunsWindowMatchesNumericDifferences) 
   ASSERT_TRUE(core.initialized());
   ASSERT_TRUE(core.gauge().marginalization) << "the run should have marginalised by now";
   auto& landmarks = const_cast<std::unordered_map<TrackId, Landmark>&>(core.map().landmarks);
-  const auto factors = buildFactors(windowKeyframes(core), landmarks, core.model(), core.gauge(),
-                                    &core.ledger());
+  const auto factors =
+      buildFactors(windowKeyframes(core), landmarks, core.model(), core.gauge(), &core.ledger());
   const auto quats = quaternionBlocks(core);
   std::map<FactorKind, int> checked;
   for (const FactorSpec& f : factors) {
@@ -336,9 +350,9 @@ TEST(WindowJacobians, EveryResidualBlockOfARunsWindowMatchesNumericDifferences) 
     ++checked[f.kind];
     if (::testing::Test::HasFailure()) break;  // one report is enough
   }
-  for (const FactorKind kind : {FactorKind::kBearing, FactorKind::kGyro, FactorKind::kBiasWalk,
-                                FactorKind::kRotationTie, FactorKind::kLidar, FactorKind::kGround,
-                                FactorKind::kMarginal})
+  for (const FactorKind kind :
+       {FactorKind::kBearing, FactorKind::kGyro, FactorKind::kBiasWalk, FactorKind::kRotationTie,
+        FactorKind::kLidar, FactorKind::kGround, FactorKind::kMarginal})
     EXPECT_GT(checked[kind], 0) << "no factor of kind " << static_cast<int>(kind) << " checked";
 }
 

@@ -87,6 +87,27 @@ TEST(BearingFactor, JacobiansMatchNumericIncludingFarAndWideRays) {
   }
 }
 
+// A rolling shutter: each sighting's camera has its own pose in the body (its row's time). The
+// landmark seen through those poses gives a zero residual, and through the rig's one does not.
+TEST(BearingFactor, EachSightingMayHaveItsOwnCameraPoseInTheBody) {
+  std::mt19937 rng(11);
+  for (int trial = 0; trial < 10; ++trial) {
+    BearingScene s = randomScene(rng, 2.0 + trial);
+    const SE3 T_B_Ca = testing::randomPose(rng, 0.01, 0.02) * s.T_B_C;
+    const SE3 T_B_Cj = testing::randomPose(rng, 0.01, 0.02) * s.T_B_C;
+    const Vec3 p_W = s.T_W_Ba * T_B_Ca * (s.bearing_Ca / s.rho);
+    s.bearing_Cj = ((s.T_W_Bj * T_B_Cj).inverse() * p_W).normalized();
+    const Mat2 W = Mat2::Identity() / 0.002;
+    const BearingFactor own(s.bearing_Ca, s.bearing_Cj, T_B_Ca, T_B_Cj, W);
+    const BearingFactor rig(s.bearing_Ca, s.bearing_Cj, s.T_B_C, W);
+    EXPECT_LT(testing::evaluate(own, s.blocks()).norm(), 1e-8);
+    EXPECT_GT(testing::evaluate(rig, s.blocks()).norm(), 0.1);
+    s.bearing_Cj = (s.bearing_Cj + testing::randomVec(rng, 0.05)).normalized();
+    const BearingFactor off(s.bearing_Ca, s.bearing_Cj, T_B_Ca, T_B_Cj, W);
+    testing::expectJacobiansMatch(off, s.blocks(), kQuatFlags, 1e-5);
+  }
+}
+
 TEST(BearingFactor, PointAtInfinityIsFiniteAndRotationOnly) {
   std::mt19937 rng(4);
   BearingScene s = randomScene(rng, 5.0);

@@ -80,6 +80,26 @@ TEST(BearingStepFactor, ACreepSharedByBothSightingsCancels) {
   EXPECT_GT(r.dot(r_k), 0.98 * r.norm() * r_k.norm());
 }
 
+TEST(BearingStepFactor, EachSightingMayHaveItsOwnCameraPoseInTheBody) {
+  std::mt19937 rng(12);
+  for (int trial = 0; trial < 10; ++trial) {
+    StepScene s = randomScene(rng, 2.0 + trial, true);
+    const SE3 T_B_Ca = testing::randomPose(rng, 0.01, 0.02) * s.T_B_C;
+    const SE3 T_B_Ci = testing::randomPose(rng, 0.01, 0.02) * s.T_B_C;
+    const SE3 T_B_Ck = testing::randomPose(rng, 0.01, 0.02) * s.T_B_C;
+    const Vec3 p_W = s.T_W_Ba * T_B_Ca * (s.bearing_Ca / s.rho);
+    s.bearing_Ci = ((s.T_W_Bi * T_B_Ci).inverse() * p_W).normalized();
+    s.bearing_Ck = ((s.T_W_Bk * T_B_Ck).inverse() * p_W).normalized();
+    const Mat2 W = Mat2::Identity() / 0.002;
+    const BearingStepFactor own(s.bearing_Ca, s.bearing_Ci, s.bearing_Ck, T_B_Ca, T_B_Ci, T_B_Ck,
+                                W);
+    const BearingStepFactor rig(s.bearing_Ca, s.bearing_Ci, s.bearing_Ck, s.T_B_C, W);
+    EXPECT_LT(testing::evaluate(own, s.blocks()).norm(), 1e-7);
+    EXPECT_GT(testing::evaluate(rig, s.blocks()).norm(), 0.1);
+    testing::expectJacobiansMatch(own, s.blocks(), kQuatFlags, 1e-5);
+  }
+}
+
 TEST(BearingStepFactor, JacobiansMatchNumericIncludingFarRays) {
   std::mt19937 rng(3);
   for (const double depth : {0.7, 3.0, 50.0, 1e4}) {
