@@ -151,6 +151,7 @@ Odometry::Odometry(const std::string& rig_file, const OdometryOptions& options,
   Config config;
   if (!options.config_file.empty()) config = Config::load(options.config_file);
   config.applyOverrides(options.settings);
+  if (options.realtime) app::applyOnlineSolveBudget(config, options.estimator);
   impl_->est = estimator::makeEstimator(options.estimator, impl_->setup, config);
   config.checkAllUsed();
   impl_->on_pose = std::move(on_pose);

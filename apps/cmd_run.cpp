@@ -69,9 +69,6 @@ const LidarScan* nearestScan(const std::vector<LidarScan>& scans, Timestamp t_ns
   return best;
 }
 
-// The window's time budget per solve in --realtime (window.max_solver_time_s), s.
-constexpr double kOnlineSolveBudgetS = 0.04;
-
 // Checked to the end, the close included (a full disk shows at the last flush).
 void writeText(const std::filesystem::path& file, const std::string& text) {
   io::writeFileAtomically(file, text);
@@ -93,10 +90,7 @@ int runRun(const RunArgs& args) {
   Config config;
   if (!args.config.empty()) config = Config::load(args.config);
   config.applyOverrides(args.sets);
-  // The online mode keeps each window solve within a time budget unless the configuration sets
-  // one (issue 43): a late solve holds up every frame queued behind it.
-  if (args.realtime && args.estimator == "window" && !config.has("window.max_solver_time_s"))
-    config.applyOverride(fmt::format("window.max_solver_time_s={}", kOnlineSolveBudgetS));
+  if (args.realtime) applyOnlineSolveBudget(config, args.estimator);
   if (!args.refine.empty()) {
     if (args.estimator != "window")
       fail("--refine {}: only the window estimator refines (got --estimator {})", args.refine,

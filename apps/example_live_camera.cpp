@@ -211,6 +211,7 @@ int run(const Args& args) {
   Config config;
   if (!args.config.empty()) config = Config::load(args.config);
   config.applyOverrides(args.sets);
+  app::applyOnlineSolveBudget(config, args.estimator);
   auto est = estimator::makeEstimator(args.estimator, setup, config);
   config.checkAllUsed();
 

@@ -9,6 +9,11 @@
 
 namespace ovo::app {
 
+void applyOnlineSolveBudget(Config& config, const std::string& estimator) {
+  if (estimator == "window" && !config.has("window.max_solver_time_s"))
+    config.applyOverride(fmt::format("window.max_solver_time_s={}", kOnlineSolveBudgetS));
+}
+
 double OnlineStats::latencyMedianMs() const { return percentile(latency_ms, 50); }
 double OnlineStats::latencyP99Ms() const { return percentile(latency_ms, 99); }
 

@@ -26,6 +26,7 @@
 #include <thread>
 #include <vector>
 
+#include "common/config.hpp"
 #include "estimator/estimator.hpp"
 
 namespace ovo::app {
@@ -34,6 +35,14 @@ namespace ovo::app {
 /// video file): 1e-10 slept for ever between frames, 1e-300 overflowed the sleep into none.
 inline constexpr double kMinReplayRate = 0.01;
 inline constexpr double kMaxReplayRate = 1000.0;
+
+/// The online mode's time budget per window solve (window.max_solver_time_s), s: a late solve
+/// holds up every frame queued behind it (issue 43).
+inline constexpr double kOnlineSolveBudgetS = 0.04;
+/// Gives `config` that budget for the window estimator unless it sets one: what every online entry
+/// point (ovo run --realtime, the live API with realtime, ovo_live_camera) applies before it
+/// makes the estimator.
+void applyOnlineSolveBudget(Config& config, const std::string& estimator);
 
 struct OnlineOptions {
   int image_queue_depth = 2;   // frames waiting for the frontend; beyond it the oldest is dropped

@@ -411,5 +411,20 @@ TEST(OnlinePipeline, StopRethrowsWhatTheEstimatorThrew) {
   EXPECT_EQ(est.finish_calls_, 0);
 }
 
+// Every online entry point (ovo run --realtime, the live API, ovo_live_camera) gives the window
+// the same solve budget, and a configuration that sets its own keeps it.
+TEST(OnlineSolveBudget, TheWindowGetsItUnlessConfiguredAndOtherEstimatorsDoNot) {
+  Config window;
+  applyOnlineSolveBudget(window, "window");
+  EXPECT_DOUBLE_EQ(window.get<double>("window.max_solver_time_s", -1.0), kOnlineSolveBudgetS);
+  Config own;
+  own.applyOverride("window.max_solver_time_s=0.2");
+  applyOnlineSolveBudget(own, "window");
+  EXPECT_DOUBLE_EQ(own.get<double>("window.max_solver_time_s", -1.0), 0.2);
+  Config kf;
+  applyOnlineSolveBudget(kf, "kf");
+  EXPECT_FALSE(kf.has("window.max_solver_time_s"));
+}
+
 }  // namespace
 }  // namespace ovo::app
