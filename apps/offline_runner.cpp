@@ -41,7 +41,7 @@ void keepFrame(OfflineRunResult& result, estimator::FrameEstimate estimate, cons
                const FrameFn& on_frame) {
   result.frames.push_back(std::move(estimate));
   if (on_frame) on_frame(result.frames.back(), grey);
-  result.frames.back().tracks.clear();
+  estimator::dropTracks(result.frames.back());
 }
 
 void runInSequence(const io::Dataset& data, estimator::Estimator& est, const ProgressFn& progress,

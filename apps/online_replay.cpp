@@ -29,7 +29,7 @@ RealtimeRunResult runRealtime(const io::Dataset& data, estimator::Estimator& est
   RealtimeRunResult result;
   OnlinePipeline pipeline(est, options.pipeline, [&](const OnlineOutput& out) {
     estimator::FrameEstimate f = out.estimate;
-    f.tracks.clear();
+    estimator::dropTracks(f);
     result.frames.push_back(std::move(f));  // estimator thread only; read after stop()
     if (on_output) on_output(out);
   });

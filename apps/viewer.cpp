@@ -115,7 +115,7 @@ void Viewer::addFrame(const estimator::FrameEstimate& estimate, const cv::Mat& g
   ages_ = std::move(ages);
   grey_ = grey;
   last_ = estimate;
-  last_->tracks.clear();
+  estimator::dropTracks(*last_);
   info_ = info;
   ++frames_;
   ++version_;

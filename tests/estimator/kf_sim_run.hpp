@@ -92,7 +92,7 @@ inline EstimatorRun runEstimator(const std::string& name, const SimSequence& seq
   for (const auto& [t_ns, grey] : seq.images) {
     estimator::feedUntilImage(t_ns, imu, next_imu, scans, next_scan, *est);
     run.frames.push_back(est->addImage(t_ns, grey));
-    run.frames.back().tracks.clear();
+    estimator::dropTracks(run.frames.back());
   }
   est->finish();
   run.trajectory = est->trajectory();
