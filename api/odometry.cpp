@@ -240,10 +240,13 @@ std::vector<Pose> Odometry::trajectory() const {
   std::vector<Pose> out;
   std::lock_guard lock(m.mutex);
   const Trajectory final_poses = m.est->trajectory();
+  // Final poses are at gyro-clock times: the image stamps less the window's time offset estimate.
+  const Timestamp shift = fromSeconds(m.est->stats().time_offset_s.value_or(0.0));
   std::size_t j = 0;
   for (const StampedPose& p : final_poses) {
-    while (j < m.poses.size() && m.poses[j].t_ns < p.t_ns) ++j;
-    const bool known = j < m.poses.size() && m.poses[j].t_ns == p.t_ns;
+    const Timestamp image_t = p.t_ns + shift;
+    while (j < m.poses.size() && m.poses[j].t_ns < image_t) ++j;
+    const bool known = j < m.poses.size() && m.poses[j].t_ns == image_t;
     out.push_back(toPose(p, known && m.poses[j].tracked, known && m.poses[j].is_keyframe));
   }
   return out;

@@ -28,6 +28,9 @@ namespace ovo {
 
 /// The body's pose T_W_B at a camera frame.
 struct Pose {
+  /// The pose callback's: the image's stamp as given to addImage. trajectory()'s: the time the
+  /// image was taken on the gyro's clock, once the window has estimated the camera-gyro time
+  /// offset (the stamp minus the estimate; the same as the stamp for kf, vo, or no gyro).
   std::int64_t t_ns = 0;
   std::array<double, 3> position_m{0, 0, 0};           // of B in W
   std::array<double, 4> orientation_xyzw{0, 0, 0, 1};  // rotation B -> W (Hamilton quaternion)
