@@ -1,5 +1,6 @@
 #include "estimator/lidar_deskew.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <vector>
@@ -28,6 +29,7 @@ LidarScan deskewScan(const LidarScan& scan, const LidarMotion& motion, double ma
     bool valid = false;
   };
   std::vector<Moved> moved(n);
+  double reach = 0.0;  // the furthest a beam moved along the grid, increments
   for (std::size_t i = 0; i < n; ++i) {
     if (!scan.valid(i)) continue;
     const Vec3 p = motion(static_cast<double>(i) * scan.time_increment_s) * scan.point_L(i);
@@ -38,16 +40,18 @@ LidarScan deskewScan(const LidarScan& scan, const LidarMotion& motion, double ma
     const double a0 = scan.angle(i);
     const double da = std::remainder(a - a0, 2.0 * M_PI);
     moved[i] = {static_cast<double>(i) + da / scan.angle_increment_rad, r, true};
+    reach = std::max(reach, std::abs(da / scan.angle_increment_rad));
   }
+  const auto span = static_cast<std::size_t>(std::ceil(reach)) + 2;
   LidarScan out = scan;
   out.time_increment_s = 0.0;
   for (std::size_t k = 0; k < n; ++k) {
     const double fk = static_cast<double>(k);
-    // The moved beams just below and just above grid position k, searched near k (the motion
-    // of one sweep moves a beam by a few increments at most).
+    // The moved beams just below and just above grid position k, searched as far as any beam
+    // moved.
     const Moved* lo = nullptr;
     const Moved* hi = nullptr;
-    const std::size_t from = k >= 4 ? k - 4 : 0, to = std::min(n, k + 5);
+    const std::size_t from = k >= span ? k - span : 0, to = std::min(n, k + span + 1);
     for (std::size_t i = from; i < to; ++i) {
       const Moved& m = moved[i];
       if (!m.valid) continue;

@@ -155,6 +155,12 @@ std::vector<FactorSpec> buildFactors(const std::vector<Keyframe*>& keyframes,
     // (a point at infinity, rho 0, still gives its bearings: they hold the rotations)
     if (anchor_it == kf_of.end() || !(lm.rho[0] >= 0.0)) continue;
     Keyframe* anchor = anchor_it->second;
+    // The anchor's camera pose in its body when it took the landmark's first sighting (a rolling
+    // shutter's row).
+    const auto anchor_obs = anchor->observations.find(id);
+    const SE3 T_B_Ca = anchor_obs != anchor->observations.end()
+                           ? sightingExtrinsics(*anchor, anchor_obs->second, model)
+                           : model.T_B_C;
     // With bearing steps each sighting after the first is tied to the previous kept one.
     Keyframe* prev = nullptr;
     for (Keyframe* kf : keyframes) {
@@ -167,10 +173,6 @@ std::vector<FactorSpec> buildFactors(const std::vector<Keyframe*>& keyframes,
       if (!u || u->u.dot(obs->second.bearing_C) < std::cos(0.2)) continue;  // gross: > 11 deg
       FactorSpec f;
       f.kind = FactorKind::kBearing;
-      const auto anchor_obs = anchor->observations.find(id);
-      const SE3 T_B_Ca = anchor_obs != anchor->observations.end()
-                             ? sightingExtrinsics(*anchor, anchor_obs->second, model)
-                             : model.T_B_C;
       const SE3 T_B_Cj = sightingExtrinsics(*kf, obs->second, model);
       if (model.bearing_steps && prev != nullptr) {
         const TrackObservation& oi = prev->observations.at(id);
