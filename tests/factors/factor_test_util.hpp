@@ -5,6 +5,7 @@
 #include <ceres/cost_function.h>
 #include <ceres/manifold.h>
 
+#include <functional>
 #include <random>
 #include <vector>
 
@@ -37,6 +38,14 @@ inline std::vector<double> quatBlock(const Quat& q) {
   return b;
 }
 inline std::vector<double> vecBlock(const Vec3& v) { return {v.x(), v.y(), v.z()}; }
+
+/// Gyro samples of the rate rate_of_t(t [s]) every `step` from t0 to t1 (200 Hz by default).
+inline std::vector<ImuSample> samplesOf(const std::function<Vec3(double)>& rate_of_t, Timestamp t0,
+                                        Timestamp t1, Timestamp step = 5'000'000) {
+  std::vector<ImuSample> out;
+  for (Timestamp t = t0; t <= t1; t += step) out.push_back({t, rate_of_t(toSeconds(t))});
+  return out;
+}
 
 /// Residual of cost at the given blocks (empty vector when Evaluate fails).
 inline Eigen::VectorXd evaluate(const ceres::CostFunction& cost,

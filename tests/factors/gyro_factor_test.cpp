@@ -7,21 +7,8 @@ namespace ovo::factors {
 namespace {
 
 using testing::quatBlock;
+using testing::samplesOf;
 using testing::vecBlock;
-
-constexpr Timestamp kStepNs = 5'000'000;  // 200 Hz
-
-std::vector<ImuSample> samplesOf(const std::function<Vec3(double)>& rate_of_t, Timestamp t0,
-                                 Timestamp t1, Timestamp step = kStepNs) {
-  std::vector<ImuSample> out;
-  for (Timestamp t = t0; t <= t1; t += step) {
-    ImuSample s;
-    s.t_ns = t;
-    s.gyro_radps = rate_of_t(toSeconds(t));
-    out.push_back(s);
-  }
-  return out;
-}
 
 TEST(GyroPreintegration, ConstantRateGivesExactRotationBetweenSampleTimes) {
   const Vec3 w(0.3, -0.2, 0.9), b(0.01, 0.02, -0.03);

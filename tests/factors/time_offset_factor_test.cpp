@@ -10,14 +10,8 @@ namespace ovo::factors {
 namespace {
 
 using testing::quatBlock;
+using testing::samplesOf;
 using testing::vecBlock;
-
-std::vector<ImuSample> samplesOf(const std::function<Vec3(double)>& rate_of_t, Timestamp t0,
-                                 Timestamp t1, Timestamp step = 5'000'000) {
-  std::vector<ImuSample> out;
-  for (Timestamp t = t0; t <= t1; t += step) out.push_back({t, rate_of_t(toSeconds(t))});
-  return out;
-}
 
 // A turn that speeds up and swings across axes: the rate changes over every interval.
 Vec3 swingingRate(double t) {
