@@ -167,6 +167,11 @@ class Estimator {
   /// Estimator stage.
   virtual void addScan(const LidarScan& scan) = 0;
 
+  /// false: trajectory(), keyframes() and biasHistory() hold only the recent past (what the
+  /// estimator may still change), so that memory stays flat over hours; for a long online run
+  /// that takes its poses from update(). true (the default): every frame's. Call before the
+  /// first frame.
+  virtual void keepHistory(bool /*keep*/) {}
   /// Called once after the last measurement (offline refinement may change earlier poses).
   virtual void finish() {}
   /// Final poses of all frames (after finish(); may differ from what update() returned).
@@ -177,6 +182,22 @@ class Estimator {
   /// Gyro bias estimate over time (for reports), empty when not estimated.
   virtual std::vector<std::pair<Timestamp, Vec3>> biasHistory() const { return {}; }
 };
+
+/// For keepHistory(false): drops the entries of a time-ordered history (time_of(entry) gives an
+/// entry's stamp) older than keep_from_ns, in batches once they are half of it, so that a vector
+/// costs O(1) a call on average and never holds more than twice what is kept.
+template <typename History, typename TimeOf>
+void trimHistory(History& history, Timestamp keep_from_ns, TimeOf time_of) {
+  auto first_kept = history.begin();
+  while (first_kept != history.end() && time_of(*first_kept) < keep_from_ns) ++first_kept;
+  const auto dropped = first_kept - history.begin();
+  if (dropped > 0 && 2 * dropped >= static_cast<decltype(dropped)>(history.size()))
+    history.erase(history.begin(), first_kept);
+}
+
+/// How much of the past vo and kf keep without the history: what they look back to (the chain's
+/// reference frames, the LiDAR baseline) with room to spare.
+inline constexpr double kRecentHistoryS = 10.0;
 
 /// Throws the ovo::Error of frontendFrameAs().
 [[noreturn]] void failFrontendFrame(const char* estimator, bool non_null);

@@ -249,9 +249,15 @@ class KfEstimator final : public Estimator {
     f.gyro_bias = filter_.gyroBias();
     frontend_gyro_.publishBias(t_ns, f.gyro_bias);
     if (f.tracked) ++stats_.frames_tracked;
+    if (trajectory_.empty()) first_t_ns_ = t_ns;
     trajectory_.push_back({t_ns, f.T_W_B});
     base_trajectory_.push_back({t_ns, T_W_B_base});
     bias_history_.emplace_back(t_ns, filter_.gyroBias());
+    if (!keep_history_) {
+      const Timestamp keep_from = t_ns - fromSeconds(kRecentHistoryS);
+      trimHistory(trajectory_, keep_from, [](const StampedPose& p) { return p.t_ns; });
+      trimHistory(bias_history_, keep_from, [](const auto& b) { return b.first; });
+    }
     if (s.status == Status::kOk && use_lidar_ && height_m_ > 0) updateScaleCorrection(t_ns, s);
     // Poses older than the LiDAR baseline are no longer looked up.
     while (!base_trajectory_.empty() &&
@@ -271,6 +277,7 @@ class KfEstimator final : public Estimator {
           "kf: the LiDAR never associated with tracked features: ground-plane scale only");
   }
 
+  void keepHistory(bool keep) override { keep_history_ = keep; }
   Trajectory trajectory() const override { return trajectory_; }
   EstimatorStats stats() const override { return stats_; }
   std::vector<std::pair<Timestamp, Vec3>> biasHistory() const override { return bias_history_; }
@@ -430,7 +437,7 @@ class KfEstimator final : public Estimator {
       if (!said_applied_) {
         stats_.notes.push_back(fmt::format(
             "kf: the LiDAR corrects the ground-plane scale by {:+.1f} % (from {:.1f} s on)",
-            100.0 * (std::exp(log_c_) - 1.0), toSeconds(t_ns - trajectory_.front().t_ns)));
+            100.0 * (std::exp(log_c_) - 1.0), toSeconds(t_ns - first_t_ns_)));
         said_applied_ = true;
       }
     } else if (scale_applied_ && x < 0.5 * options_.scale_deadband) {
@@ -476,6 +483,8 @@ class KfEstimator final : public Estimator {
   std::optional<Timestamp> last_scale_update_t_;
   std::optional<Timestamp> last_lidar_t_;
   Trajectory trajectory_;
+  bool keep_history_ = true;
+  Timestamp first_t_ns_ = 0;  // the first frame's
   std::deque<StampedPose> base_trajectory_;
   std::vector<std::pair<Timestamp, Vec3>> bias_history_;
   EstimatorStats stats_;

@@ -99,10 +99,14 @@ class VoEstimator final : public Estimator {
     if (f.tracked) ++stats_.frames_tracked;
     f.tracks = std::move(frame->tracks);
     trajectory_.push_back({t_ns, f.T_W_B});
+    if (!keep_history_)
+      trimHistory(trajectory_, t_ns - fromSeconds(kRecentHistoryS),
+                  [](const StampedPose& p) { return p.t_ns; });
     f.estimator_ms = msSince(t0);
     return f;
   }
 
+  void keepHistory(bool keep) override { keep_history_ = keep; }
   Trajectory trajectory() const override { return trajectory_; }
   EstimatorStats stats() const override { return stats_; }
 
@@ -114,6 +118,7 @@ class VoEstimator final : public Estimator {
   double height_m_ = 0.0;
   double last_speed_mps_ = 0.0;
   Trajectory trajectory_;
+  bool keep_history_ = true;
   EstimatorStats stats_;
 };
 

@@ -1,13 +1,15 @@
 // The sliding-window estimator's per-frame logic without images (DESIGN section 7): fed with
 // tracked bearings per frame (from the Frontend, or synthetic in tests), gyro samples and scans,
 // it predicts each frame's pose, places it against the window's landmarks, decides keyframes,
-// solves and marginalises, holds the pose at standstills and restarts after a tracking loss. The
-// parts with a job of their own live beside it: the scans (window_scans), the LiDAR ranges
-// (window_lidar_ranges) and rescale (window_rescale), the start (window_initializer), standstills
-// (window_standstill), the keyframe policy (window_keyframes), landmarks (window_landmarks), the
-// factors, solve and marginalisation (window_factors, window_solve, window_marginalize), the
-// per-frame pose (pose_refinement), the frame log the output is built from (window_frames) and
-// the offline full refinement (window_refine).
+// solves and marginalises, holds the pose at standstills and restarts after a tracking loss. Its
+// own code is in window_core.cpp (the frame loop), window_core_gyro.cpp (the gyro side),
+// window_core_start.cpp and window_core_standstill.cpp. The parts with a job of their own live
+// beside it: the scans (window_scans), the LiDAR ranges (window_lidar_ranges) and rescale
+// (window_rescale), the start (window_initializer), standstills (window_standstill), the keyframe
+// policy (window_keyframes), landmarks (window_landmarks), the factors, solve and
+// marginalisation (window_factors, window_solve, window_marginalize), the per-frame pose
+// (pose_refinement), the frame log the output is built from (window_frames) and the offline full
+// refinement (window_refine).
 #pragma once
 
 #include <map>
@@ -71,6 +73,8 @@ class WindowCore {
   /// Gyro samples held for later preintegrations (bounded: trimGyro).
   std::size_t gyroSamplesHeld() const { return gyro_.samples().size(); }
 
+  /// false: the poses of frames settled for good are dropped instead of kept (FrameLog).
+  void keepHistory(bool keep) { frames_.keepHistory(keep); }
   /// End of the sequence: final poses, optional full refinement.
   void finish();
   Trajectory trajectory() const;
@@ -79,6 +83,7 @@ class WindowCore {
   std::vector<std::pair<Timestamp, Vec3>> biasHistory() const { return frames_.biasHistory(); }
 
   bool initialized() const { return initialized_; }
+  const FrameLog& frameLog() const { return frames_; }
   const WindowMap& map() const { return map_; }
   const WindowSolveInfo& lastSolve() const { return last_solve_; }
   /// What holds the window's gauge now (first-keyframe priors or the marginalisation prior).
@@ -148,6 +153,7 @@ class WindowCore {
   /// inliers near the camera get (or keep) the factor when the plane agrees with the camera height.
   void labelGround();
   void marginalize();
+  void settleFrames();
   void resetWindow();
   /// A frame's pose predicted from the last one: the gyro's rotation (a prior of rot_sigma when
   /// the gyro gave one) and the constant velocity (decaying over long gaps); dt since the last
@@ -205,6 +211,7 @@ class WindowCore {
 
   GyroBuffer gyro_;
   GyroSpikeFilter gyro_spikes_;
+  static constexpr double kSettleAfterS = 5.0;  // frames are settled this long after at least, s
   static constexpr double kGyroKeepS = 30.0;  // gyro history kept at most (a long stop), s
   static constexpr double kReshiftS = 0.001;  // a keyframe's gyro interval is integrated again
                                               // when the time offset moved this far from it, s

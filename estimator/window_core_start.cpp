@@ -29,7 +29,7 @@ Reference WindowCore::makeReference(const VisualFrame& frame, const SE3& T_W_B) 
     near_beams.insert(c.track_id);
   for (const auto& o : selectSpread(frame.observations, {}, near_beams, options_))
     r.obs[o.track_id] = o;
-  r.frame_index = static_cast<int>(frames_.records().size());
+  r.frame_index = static_cast<int>(frames_.size());
   return r;
 }
 
@@ -52,7 +52,7 @@ int WindowCore::processBeforeInit(const VisualFrame& frame, const Prediction& pr
   } else {
     e.tracked = false;
     e.status = "initializing";
-    if (reference_) reference_->keepSightings(static_cast<int>(frames_.records().size()), frame);
+    if (reference_) reference_->keepSightings(static_cast<int>(frames_.size()), frame);
   }
   return ref_kf;
 }
@@ -139,9 +139,11 @@ void WindowCore::startWindow(const VisualFrame& frame, const InitialGeometry& g)
   // Frames between the reference and now: positions interpolated in time, against kf0.
   const SE3 T_W_K0 = kf0->pose();
   const SE3 T_W_K1 = kf1->pose();
-  auto& records = frames_.records();
-  for (std::size_t i = static_cast<std::size_t>(ref.frame_index); i < records.size(); ++i) {
-    FrameRecord& r = records[i];
+  // (The frames since the reference are open records: settling stops at the reference.)
+  for (std::size_t i = static_cast<std::size_t>(ref.frame_index); i < frames_.size(); ++i) {
+    FrameRecord* record = frames_.record(i);
+    if (record == nullptr) continue;
+    FrameRecord& r = *record;
     const double a =
         std::clamp(toSeconds(r.t_ns - ref.t_ns) / toSeconds(frame.t_ns - ref.t_ns), 0.0, 1.0);
     r.T_W_B.translation() = (1.0 - a) * T_W_K0.translation() + a * T_W_K1.translation();
@@ -153,7 +155,8 @@ void WindowCore::startWindow(const VisualFrame& frame, const InitialGeometry& g)
   // Time is a poor guide when the robot drives off from a stop: refine those frames against the
   // first landmarks (their gyro rotation as the prior), keeping the interpolation where that fails.
   for (const auto& [index, seen] : ref.pending) {
-    if (index <= ref.frame_index || index >= static_cast<int>(records.size())) continue;
+    FrameRecord* record = frames_.record(static_cast<std::size_t>(index));
+    if (index <= ref.frame_index || record == nullptr) continue;
     std::vector<Vec3> points_W, bearings_C;
     for (const TrackObservation& o : seen) {
       if (auto p = map_.pointW(o.track_id, setup_.T_B_C)) {
@@ -162,7 +165,7 @@ void WindowCore::startWindow(const VisualFrame& frame, const InitialGeometry& g)
       }
     }
     if (static_cast<int>(points_W.size()) < options_.min_landmark_observations) continue;
-    FrameRecord& r = records[index];
+    FrameRecord& r = *record;
     const auto refined = refinePose(
         points_W, bearings_C, r.T_W_B, r.T_W_B.linear(), options_.rotation_prior_sigma_rad, model_,
         options_.motion_only_iterations, options_.outlier_angle_deg * kDegToRad);

@@ -62,6 +62,7 @@ class WindowEstimator final : public Estimator {
     return e;
   }
 
+  void keepHistory(bool keep) override { core_.keepHistory(keep); }
   void finish() override { core_.finish(); }
   Trajectory trajectory() const override { return core_.trajectory(); }
   Trajectory keyframes() const override { return core_.keyframes(); }

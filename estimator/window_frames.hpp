@@ -1,8 +1,12 @@
 // The window estimator's record of every frame it was given (its pose as returned online and
 // relative to the keyframe it was placed against), the keyframes' poses once they leave the window,
 // and the gyro bias over time: what trajectory(), keyframes() and biasHistory() are built from.
+// A frame whose keyframe has left the window for good is settled: its final pose is kept in a
+// compact form (64 bytes), or dropped when the history is not kept (a long online run that
+// streams its poses), so that memory does not grow with the run.
 #pragma once
 
+#include <deque>
 #include <functional>
 #include <map>
 #include <optional>
@@ -44,21 +48,41 @@ struct KeyframeState {
   Vec3 bias_radps = Vec3::Zero();
 };
 
+/// A settled pose: final, stored compactly.
+struct SettledPose {
+  Timestamp t_ns = 0;
+  Eigen::Quaterniond q_W_B = Eigen::Quaterniond::Identity();
+  Vec3 p_W_B = Vec3::Zero();
+};
+
 class FrameLog {
  public:
   /// A keyframe's states now (window, archive or kept here), nullopt when unknown.
   using KeyframeLookup = std::function<std::optional<KeyframeState>(int kf_id)>;
 
-  void add(const FrameRecord& r) { frames_.push_back(r); }
-  std::vector<FrameRecord>& records() { return frames_; }
-  const std::vector<FrameRecord>& records() const { return frames_; }
+  void add(const FrameRecord& r) { open_.push_back(r); }
+  /// Frames recorded so far (settled and open); a frame's index counts from the first.
+  std::size_t size() const { return settled_count_ + open_.size(); }
+  /// The open record of frame `index`, nullptr once it is settled (or beyond the last).
+  FrameRecord* record(std::size_t index);
+  /// The records not settled yet, oldest first.
+  std::deque<FrameRecord>& open() { return open_; }
+  const std::deque<FrameRecord>& open() const { return open_; }
+
+  /// false: settled frames, keyframes and biases are dropped instead of kept (trajectory(),
+  /// keyframes() and biasHistory() then hold only the recent part the window may still change).
+  void keepHistory(bool keep) { keep_history_ = keep; }
+  /// Settles the frames before `before_ns` whose keyframe's states are kept (it left the window for
+  /// good), oldest first, up to the first that is not; then the kept keyframes older than every
+  /// open frame's and `before_ns`, and the biases before it.
+  void settle(Timestamp before_ns, const KeyframeLookup& keyframe_state);
 
   /// Keeps a keyframe's poses as they are when it leaves the window (or at the end).
   void keepPoses(const Keyframe& kf) { kf_states_[kf.id] = {kf.pose(), kf.bodyPose(), kf.bias()}; }
   std::optional<KeyframeState> keptState(int kf_id) const;
   void addKeyframeTime(int kf_id, Timestamp t_ns) { kf_times_[kf_id] = t_ns; }
   void addBias(Timestamp t_ns, const Vec3& bias_radps) { bias_.emplace_back(t_ns, bias_radps); }
-  const std::vector<std::pair<Timestamp, Vec3>>& biasHistory() const { return bias_; }
+  std::vector<std::pair<Timestamp, Vec3>> biasHistory() const { return {bias_.begin(), bias_.end()}; }
 
   /// The body's position at t (before the frame at t_now whose position is p_now), interpolated
   /// between the recorded frames around t; `fallback` when no recorded frame is at or before t.
@@ -72,10 +96,16 @@ class FrameLog {
   Trajectory keyframes(const KeyframeLookup& keyframe_pose) const;
 
  private:
-  std::vector<FrameRecord> frames_;
+  SE3 finalPose(const FrameRecord& r, const KeyframeLookup& keyframe_state) const;
+
+  std::deque<FrameRecord> open_;  // frames not settled, oldest first
+  std::size_t settled_count_ = 0;
+  std::vector<SettledPose> settled_;  // the settled frames' poses (kept history)
+  std::vector<SettledPose> settled_keyframes_;
+  bool keep_history_ = true;
   std::map<int, KeyframeState> kf_states_;  // id -> its states when it left the window
   std::map<int, Timestamp> kf_times_;
-  std::vector<std::pair<Timestamp, Vec3>> bias_;
+  std::deque<std::pair<Timestamp, Vec3>> bias_;
 };
 
 }  // namespace ovo::estimator

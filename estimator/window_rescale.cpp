@@ -25,7 +25,7 @@ void rescaleWindow(double s, WindowMap& map, WindowGauge& gauge, FrameLog& frame
   if (map.find(gauge.kf_id) != nullptr)  // a pose prior on a keyframe of the window moves too
     gauge.T_W_B.translation() = centre + s * (gauge.T_W_B.translation() - centre);
   // Frames placed against a keyframe of the window: their offset from it is a length too.
-  for (FrameRecord& r : frames.records())
+  for (FrameRecord& r : frames.open())
     if (r.ref_kf >= 0 && map.find(r.ref_kf) != nullptr) r.T_kf_B.translation() *= s;
   motion.last_T_W_B.translation() = centre + s * (motion.last_T_W_B.translation() - centre);
   motion.velocity_W *= s;

@@ -51,5 +51,26 @@ TEST(ApplyNoiseFloors, RaisesZerosAndKeepsRealFigures) {
   EXPECT_TRUE(applyNoiseFloors(rig).empty());  // at the floor: nothing more to raise
 }
 
+// trimHistory keeps every entry from keep_from on, and drops the older ones in batches: never
+// more than as many old entries as kept ones, so a history fed one entry a step stays bounded.
+TEST(TrimHistory, KeepsTheRecentPartAndDropsTheRestInBatches) {
+  std::vector<Timestamp> h;
+  std::size_t most = 0;
+  for (Timestamp t = 0; t < 1000; ++t) {
+    h.push_back(t);
+    trimHistory(h, t - 99, [](Timestamp x) { return x; });  // keep the last 100
+    most = std::max(most, h.size());
+    ASSERT_GE(h.size(), std::min<std::size_t>(t + 1, 100));
+    ASSERT_EQ(h.back(), t);
+    ASSERT_LE(static_cast<Timestamp>(h.size()) - 1, std::max<Timestamp>(t - h.front(), 0));
+  }
+  EXPECT_LE(most, 200u);
+  EXPECT_GE(h.front(), 1000 - 200);
+  EXPECT_LE(h.front(), 1000 - 100);
+  std::vector<Timestamp> all = {1, 2, 3};
+  trimHistory(all, 0, [](Timestamp x) { return x; });
+  EXPECT_EQ(all.size(), 3u);  // nothing older than keep_from
+}
+
 }  // namespace
 }  // namespace ovo::estimator

@@ -126,7 +126,7 @@ TEST(WindowRescale, EveryFrameOfTheWindowScalesWithIt) {
     before.push_back(r.T_W_B.translation());
   }
   WindowGauge gauge;
-  SE3 last = log.records().back().T_W_B;
+  SE3 last = log.open().back().T_W_B;
   Vec3 velocity(0.8, 0.0, 0.0);
   rescaleWindow(1.5, map, gauge, log, {last, velocity});
   const Trajectory traj = log.trajectory(lookup);
@@ -170,6 +170,106 @@ TEST(WindowMemory, TheGyroBufferStaysBounded) {
   EXPECT_LT(short_run.first, 10.0);
   EXPECT_LT(long_run.first, 10.0);
   EXPECT_LT(long_run.second, short_run.second + 1.0);
+}
+
+// A frame whose keyframe has left the window is settled: its final pose kept compactly (or
+// dropped without the history), so that the frame records do not grow with the run. Over a
+// whole synthetic run the records still open are as many after 40 s as after 20 s, while the
+// trajectory has every frame (or, without the history, only the open ones).
+TEST(WindowMemory, TheOpenFrameRecordsStayBounded) {
+  struct Run {
+    std::size_t open_at_end = 0, frames = 0, trajectory = 0;
+  };
+  const auto run = [](double duration_s, bool keep_history) {
+    test::SyntheticOptions o;
+    o.duration_s = duration_s;
+    const auto seq = sequence(o);
+    WindowCore core(seq.setup, WindowOptions{});
+    core.keepHistory(keep_history);
+    test::feedSequence(seq, core, [](std::size_t, const FrameEstimate&) {});
+    return Run{core.frameLog().open().size(), seq.frames.size(), core.trajectory().size()};
+  };
+  const Run short_run = run(20.0, true), long_run = run(40.0, true);
+  RecordProperty("open_20", std::to_string(short_run.open_at_end));
+  RecordProperty("open_40", std::to_string(long_run.open_at_end));
+  EXPECT_EQ(short_run.trajectory, short_run.frames);
+  EXPECT_EQ(long_run.trajectory, long_run.frames);
+  EXPECT_LT(short_run.open_at_end, short_run.frames / 2);
+  EXPECT_LE(long_run.open_at_end, short_run.open_at_end + 20);  // a keyframe interval or so
+  const Run streaming = run(40.0, false);
+  EXPECT_EQ(streaming.trajectory, streaming.open_at_end);
+  EXPECT_LT(streaming.trajectory, streaming.frames / 4);
+}
+
+// Settling changes no pose: frames placed against keyframes that left the window (their states
+// kept), settled up to the first frame whose keyframe is still in the window, give the
+// trajectory and keyframes they gave as records; the keyframes no open frame refers to are
+// settled with them. Without the history both are dropped.
+TEST(WindowMemory, SettlingKeepsEveryPose) {
+  std::vector<std::unique_ptr<Keyframe>> kfs;
+  for (int k = 0; k < 4; ++k) {
+    auto kf = std::make_unique<Keyframe>(SE3::Identity());
+    kf->id = k;
+    SE3 T = SE3::Identity();
+    T.linear() = so3::exp(Vec3(0.1 * k, -0.05, 0.3 * k));
+    T.translation() = Vec3(2.0 * k, 0.5 * k, 0.1);
+    kf->setPose(T);
+    kf->b_g[1] = 1e-3 * k;
+    kfs.push_back(std::move(kf));
+  }
+  auto lookup_in = [&](const FrameLog& log) {
+    return [&kfs, &log](int id) -> std::optional<KeyframeState> {
+      if (id >= 2) return KeyframeState{kfs[id]->pose(), kfs[id]->bodyPose(), kfs[id]->bias()};
+      return log.keptState(id);  // 0 and 1 left the window
+    };
+  };
+  const auto fill = [&](FrameLog& log) {
+    for (int f = 0; f < 16; ++f) {
+      FrameRecord r;
+      r.t_ns = fromSeconds(0.05 * f);
+      r.ref_kf = f / 4;
+      r.T_kf_B.translation() = Vec3(0.3 + 0.1 * f, -0.05 * f, 0.01 * f);
+      r.T_kf_B.linear() = so3::exp(Vec3(0.01 * f, 0.0, 0.02));
+      if (f % 2 == 1) r.gyro = GyroSpan{so3::exp(Vec3(0.0, 0.0, 0.01 * f)), Mat3::Identity(), Vec3::Zero()};
+      r.T_W_B = kfs[r.ref_kf]->bodyPose() * r.T_kf_B;
+      log.add(r);
+      if (f % 4 == 0) log.addKeyframeTime(r.ref_kf, r.t_ns);
+      log.addBias(r.t_ns, Vec3(0.0, 1e-4 * f, 0.0));
+    }
+    log.keepPoses(*kfs[0]);
+    log.keepPoses(*kfs[1]);
+  };
+  FrameLog log;
+  fill(log);
+  const Trajectory before = log.trajectory(lookup_in(log));
+  const Trajectory kf_before = log.keyframes(lookup_in(log));
+  log.settle(fromSeconds(10.0), lookup_in(log));  // up to the frames of keyframe 2
+  EXPECT_EQ(log.open().size(), 8u);
+  EXPECT_EQ(log.size(), 16u);
+  EXPECT_EQ(log.record(7), nullptr);
+  ASSERT_NE(log.record(8), nullptr);
+  EXPECT_EQ(log.record(8)->ref_kf, 2);
+  EXPECT_FALSE(log.keptState(0).has_value());  // settled with its frames
+  const Trajectory after = log.trajectory(lookup_in(log));
+  const Trajectory kf_after = log.keyframes(lookup_in(log));
+  ASSERT_EQ(after.size(), before.size());
+  ASSERT_EQ(kf_after.size(), kf_before.size());
+  for (std::size_t i = 0; i < before.size(); ++i) {
+    EXPECT_EQ(after[i].t_ns, before[i].t_ns);
+    EXPECT_LT((after[i].T_W_B.translation() - before[i].T_W_B.translation()).norm(), 1e-12);
+    EXPECT_LT(so3::angle(after[i].T_W_B.linear().transpose() * before[i].T_W_B.linear()), 1e-12);
+  }
+  for (std::size_t i = 0; i < kf_before.size(); ++i)
+    EXPECT_LT((kf_after[i].T_W_B.matrix() - kf_before[i].T_W_B.matrix()).norm(), 1e-12);
+  EXPECT_EQ(log.biasHistory().size(), 16u);
+
+  FrameLog streaming;
+  streaming.keepHistory(false);
+  fill(streaming);
+  streaming.settle(fromSeconds(10.0), lookup_in(streaming));
+  EXPECT_EQ(streaming.trajectory(lookup_in(streaming)).size(), 8u);
+  EXPECT_EQ(streaming.keyframes(lookup_in(streaming)).size(), 2u);
+  EXPECT_EQ(streaming.biasHistory().size(), 0u);  // every bias before 10 s
 }
 
 // Online, the gyro may reach the estimator after its frame: a keyframe's preintegration is then
