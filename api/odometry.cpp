@@ -11,6 +11,7 @@
 #include <variant>
 
 #include "api/ovo.hpp"
+#include "apps/offline_runner.hpp"
 #include "apps/online_pipeline.hpp"
 #include "camera/calib_io.hpp"
 #include "common/config.hpp"
@@ -43,17 +44,10 @@ estimator::SensorSetup setupFromRig(const std::filesystem::path& rig_file,
                                     const OdometryOptions& options) {
   const io::RigInfo rig = io::readRigYaml(rig_file);
   const std::filesystem::path calib = io::rigCameraCalibration(rig, rig_file);
-  estimator::SensorSetup setup{.camera = camera::loadCamera(calib)};
   std::optional<SE3> T_B_C_calib;
   if (calib.extension() == ".yaml") T_B_C_calib = camera::readSensorYamlExtrinsics(calib);
-  setup.T_B_C = io::cameraExtrinsics(rig, T_B_C_calib, rig_file);
-  setup.T_B_L = rig.T_B_L;
-  setup.camera_rate_hz = rig.camera_rate_hz;
-  setup.pixel_sigma = rig.pixel_sigma;
-  setup.camera_height_m = rig.camera_height_m;
-  setup.gyro_noise_density = rig.gyro_noise_density;
-  setup.gyro_bias_random_walk = rig.gyro_bias_random_walk;
-  setup.lidar_range_sigma_m = rig.lidar_range_sigma_m;
+  estimator::SensorSetup setup = app::sensorSetupFromRig(
+      rig, camera::loadCamera(calib), io::cameraExtrinsics(rig, T_B_C_calib, rig_file));
   setup.has_gyro = options.use_gyro;
   setup.has_lidar = options.use_lidar;
   estimator::applyNoiseFloors(setup);
@@ -93,8 +87,12 @@ cv::Mat toGrey(const cv::Mat& image, const camera::Camera& cam) {
 }  // namespace
 
 struct Odometry::Impl {
-  explicit Impl(estimator::SensorSetup s) : setup(std::move(s)) {}
+  explicit Impl(estimator::SensorSetup s)
+      : setup(std::move(s)), image_shift_ns(fromSeconds(setup.time_offset_s)) {}
   estimator::SensorSetup setup;
+  // The rig's camera.time_offset_s: an image's stamp less this is its time on the gyro clock,
+  // the time the estimator is given; the poses go out at the stamps as given.
+  Timestamp image_shift_ns = 0;
   std::unique_ptr<estimator::Estimator> est;
   PoseCallback on_pose;
   bool realtime = false;
@@ -108,7 +106,8 @@ struct Odometry::Impl {
   bool any_image = false, any_gyro = false, any_scan = false;
   Timestamp last_image = 0, last_gyro = 0, last_scan = 0;
   mutable std::mutex mutex;
-  std::vector<Pose> poses;  // as update() returned them
+  std::vector<Pose> poses;  // as update() returned them (the recent past without the trajectory)
+  bool keep_trajectory = true;
 
   void process(const Item& item) {
     if (const auto* scan = std::get_if<LidarScan>(&item)) {
@@ -118,10 +117,14 @@ struct Odometry::Impl {
     const auto& [t, grey] = std::get<std::pair<Timestamp, cv::Mat>>(item);
     deliver(toPose(est->addImage(t, grey)));
   }
-  void deliver(const Pose& p) {
+  void deliver(Pose p) {
+    p.t_ns += image_shift_ns;
     {
       std::lock_guard lock(mutex);
       poses.push_back(p);
+      if (!keep_trajectory)
+        estimator::trimHistory(poses, p.t_ns - fromSeconds(estimator::kRecentHistoryS),
+                               [](const Pose& q) { return q.t_ns; });
       ++processed;
     }
     if (on_pose) on_pose(p);
@@ -153,6 +156,8 @@ Odometry::Odometry(const std::string& rig_file, const OdometryOptions& options,
   config.applyOverrides(options.settings);
   if (options.realtime) app::applyOnlineSolveBudget(config, options.estimator);
   impl_->est = estimator::makeEstimator(options.estimator, impl_->setup, config);
+  impl_->est->keepHistory(options.keep_trajectory);
+  impl_->keep_trajectory = options.keep_trajectory;
   config.checkAllUsed();
   impl_->on_pose = std::move(on_pose);
   impl_->realtime = options.realtime;
@@ -177,9 +182,10 @@ bool Odometry::addImage(std::int64_t t_ns, const cv::Mat& image) {
   cv::Mat grey = toGrey(image, m.setup.camera);
   m.any_image = true;
   m.last_image = t_ns;
-  if (m.pipeline) return m.pipeline->addImage(t_ns, grey);
-  m.waiting.emplace_back(std::pair<Timestamp, cv::Mat>(t_ns, std::move(grey)));
-  if (!m.setup.has_gyro || (m.any_gyro && m.last_gyro >= t_ns)) m.drain(std::nullopt);
+  const Timestamp t_gyro_clock = t_ns - m.image_shift_ns;
+  if (m.pipeline) return m.pipeline->addImage(t_gyro_clock, grey);
+  m.waiting.emplace_back(std::pair<Timestamp, cv::Mat>(t_gyro_clock, std::move(grey)));
+  if (!m.setup.has_gyro || (m.any_gyro && m.last_gyro >= t_gyro_clock)) m.drain(std::nullopt);
   return true;
 }
 
@@ -240,8 +246,10 @@ std::vector<Pose> Odometry::trajectory() const {
   std::vector<Pose> out;
   std::lock_guard lock(m.mutex);
   const Trajectory final_poses = m.est->trajectory();
-  // Final poses are at gyro-clock times: the image stamps less the window's time offset estimate.
-  const Timestamp shift = fromSeconds(m.est->stats().time_offset_s.value_or(0.0));
+  // Final poses are at gyro-clock times: the image stamps less the rig's time offset and the
+  // window's estimate on top of it.
+  const Timestamp shift =
+      fromSeconds(m.est->stats().time_offset_s.value_or(0.0)) + m.image_shift_ns;
   std::size_t j = 0;
   for (const StampedPose& p : final_poses) {
     const Timestamp image_t = p.t_ns + shift;

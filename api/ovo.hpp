@@ -29,8 +29,8 @@ namespace ovo {
 /// The body's pose T_W_B at a camera frame.
 struct Pose {
   /// The pose callback's: the image's stamp as given to addImage. trajectory()'s: the time the
-  /// image was taken on the gyro's clock, once the window has estimated the camera-gyro time
-  /// offset (the stamp minus the estimate; the same as the stamp for kf, vo, or no gyro).
+  /// image was taken on the gyro's clock: the stamp minus the rig's camera.time_offset_s and,
+  /// for the window, minus its own estimate on top of it.
   std::int64_t t_ns = 0;
   std::array<double, 3> position_m{0, 0, 0};           // of B in W
   std::array<double, 4> orientation_xyzw{0, 0, 0, 1};  // rotation B -> W (Hamilton quaternion)
@@ -66,6 +66,10 @@ struct OdometryOptions {
   /// poses are those of `ovo run`. true (live): two threads of their own process the images; when
   /// they fall behind the oldest waiting image is dropped; the callback runs on their thread.
   bool realtime = false;
+  /// true: trajectory() gives every frame's final pose (memory grows with the run, about 100
+  /// bytes a frame). false: only the recent past that the estimator may still change, so that
+  /// memory stays flat over a working day; take the poses from the callback.
+  bool keep_trajectory = true;
 };
 
 /// Visual odometry over a stream of measurements. Feed each sensor in time order.

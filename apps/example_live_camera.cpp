@@ -27,6 +27,7 @@
 #include <sstream>
 #include <thread>
 
+#include "apps/offline_runner.hpp"
 #include "apps/online_pipeline.hpp"
 #include "apps/run_metrics.hpp"
 #include "apps/viewer.hpp"
@@ -194,15 +195,14 @@ int run(const Args& args) {
   const auto T_B_C_calib = camera::readSensorYamlExtrinsics(args.calib);
   if (!args.rig.empty()) {
     const io::RigInfo rig = io::readRigYaml(args.rig);
-    setup.T_B_C = io::cameraExtrinsics(rig, T_B_C_calib, args.rig);  // as for a dataset
-    setup.T_B_L = rig.T_B_L;
-    setup.camera_rate_hz = rig.camera_rate_hz, setup.pixel_sigma = rig.pixel_sigma;
-    setup.camera_height_m = rig.camera_height_m;
-    setup.gyro_noise_density = rig.gyro_noise_density;
-    setup.gyro_bias_random_walk = rig.gyro_bias_random_walk;
+    setup = app::sensorSetupFromRig(rig, setup.camera,
+                                    io::cameraExtrinsics(rig, T_B_C_calib, args.rig));
   } else if (T_B_C_calib) {
     setup.T_B_C = *T_B_C_calib;
   }
+  // The rig's camera-gyro time offset: the images go to the estimator at their time on the gyro
+  // clock (stamp - offset), the poses come out at their stamps.
+  const Timestamp image_shift_ns = fromSeconds(setup.time_offset_s);
   const double fps = args.fps > 0 ? args.fps : capture.get(cv::CAP_PROP_FPS);
   if (fps > 0) setup.camera_rate_hz = fps;
   setup.has_gyro = !args.no_gyro;
@@ -213,6 +213,7 @@ int run(const Args& args) {
   config.applyOverrides(args.sets);
   app::applyOnlineSolveBudget(config, args.estimator);
   auto est = estimator::makeEstimator(args.estimator, setup, config);
+  est->keepHistory(false);  // the poses go out as they come: memory stays flat for hours
   config.checkAllUsed();
 
   std::unique_ptr<app::Viewer> viewer;
@@ -225,7 +226,8 @@ int run(const Args& args) {
   app::OnlinePipeline pipeline(*est, options, [&](const app::OnlineOutput& out) {
     const SE3& T = out.estimate.T_W_B;
     const Quat q(T.linear());
-    std::printf("%.9f %.6f %.6f %.6f %.9f %.9f %.9f %.9f\n", toSeconds(out.estimate.t_ns),
+    std::printf("%.9f %.6f %.6f %.6f %.9f %.9f %.9f %.9f\n",
+                toSeconds(out.estimate.t_ns + image_shift_ns),
                 T.translation().x(), T.translation().y(), T.translation().z(), q.x(), q.y(), q.z(),
                 q.w());
     std::fflush(stdout);
@@ -264,7 +266,7 @@ int run(const Args& args) {
                                       std::chrono::duration_cast<std::chrono::nanoseconds>(
                                           std::chrono::duration<double>(t_rel_s / args.rate)));
       }
-      pipeline.addImage(t_ns, frame);
+      pipeline.addImage(t_ns - image_shift_ns, frame);
     }
   };
   try {

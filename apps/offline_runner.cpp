@@ -291,19 +291,25 @@ std::optional<std::string> imagesOntoGyroClock(io::Dataset& data) {
       offset_s * 1e3);
 }
 
+estimator::SensorSetup sensorSetupFromRig(const io::RigInfo& rig, const camera::Camera& camera,
+                                          const SE3& T_B_C) {
+  estimator::SensorSetup s{.camera = camera};
+  s.T_B_C = T_B_C;
+  s.T_B_L = rig.T_B_L;
+  s.camera_rate_hz = rig.camera_rate_hz;
+  s.pixel_sigma = rig.pixel_sigma;
+  s.camera_height_m = rig.camera_height_m;
+  s.time_offset_s = rig.camera_time_offset_s;
+  s.rolling_shutter_s = rig.camera_rolling_shutter_s;
+  s.gyro_noise_density = rig.gyro_noise_density;
+  s.gyro_bias_random_walk = rig.gyro_bias_random_walk;
+  s.lidar_range_sigma_m = rig.lidar_range_sigma_m;
+  return s;
+}
+
 estimator::SensorSetup sensorSetupFrom(const io::Dataset& data) {
   if (!data.camera) fail("{}: the dataset has no camera calibration", data.root.string());
-  estimator::SensorSetup s{.camera = *data.camera};
-  s.T_B_C = data.rig.T_B_C;
-  s.T_B_L = data.rig.T_B_L;
-  s.camera_rate_hz = data.rig.camera_rate_hz;
-  s.pixel_sigma = data.rig.pixel_sigma;
-  s.camera_height_m = data.rig.camera_height_m;
-  s.time_offset_s = data.rig.camera_time_offset_s;
-  s.rolling_shutter_s = data.rig.camera_rolling_shutter_s;
-  s.gyro_noise_density = data.rig.gyro_noise_density;
-  s.gyro_bias_random_walk = data.rig.gyro_bias_random_walk;
-  s.lidar_range_sigma_m = data.rig.lidar_range_sigma_m;
+  estimator::SensorSetup s = sensorSetupFromRig(data.rig, *data.camera, data.rig.T_B_C);
   s.has_gyro = !data.imu.empty();
   s.has_lidar = !data.scans.empty();
   return s;

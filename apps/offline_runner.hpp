@@ -58,6 +58,12 @@ void warnSkipped(const io::SkippedRecords::Kind& kind, bool more_may_follow = fa
 /// The error for a run in which no image could be used (names the first one's problem).
 [[noreturn]] void failNoUsableImage(const io::Dataset& data, const io::SkippedRecords& skipped);
 
+/// The estimator's view of a rig's sensors (extrinsics T_B_L, rates, noise figures, camera
+/// height, time offset, rolling shutter) for `camera` at T_B_C; gyro and LiDAR present. The
+/// time offset is the caller's to apply to the image stamps (imagesOntoGyroClock, or each image
+/// online): no estimator moves them.
+estimator::SensorSetup sensorSetupFromRig(const io::RigInfo& rig, const camera::Camera& camera,
+                                          const SE3& T_B_C);
 /// The estimator's view of a dataset's sensors.
 estimator::SensorSetup sensorSetupFrom(const io::Dataset& data);
 
