@@ -228,6 +228,7 @@ int runRun(const RunArgs& args) {
   metrics["time_offset_s"] = time_offset_s + stats.time_offset_s.value_or(0.0);
   metrics["time_offset_rig_s"] = time_offset_s;
   metrics["time_offset_estimated"] = stats.time_offset_s.has_value();
+  if (stats.camera_height_offset_m) metrics["camera_height_offset_m"] = *stats.camera_height_offset_m;
   if (args.realtime) {
     metrics["realtime_rate"] = args.rate;
     metrics["timing"]["replay_lag_ms_max"] = replay_lag_ms_max;

@@ -117,6 +117,9 @@ struct EstimatorStats {
   // window: the camera-gyro time offset it estimated on top of the rig's (image stamp minus the
   // gyro clock's time of the image), s; none when it holds the rig's value.
   std::optional<double> time_offset_s;
+  // window: the correction of the rig's camera height it estimated (the ground points it sees
+  // lie this much further below the camera than the rig's height), m; none when not estimated.
+  std::optional<double> camera_height_offset_m;
 };
 
 /// The frontend stage's result for one image, handed to the estimator stage. A self-contained

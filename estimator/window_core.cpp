@@ -434,7 +434,8 @@ void WindowCore::solveWindow() {
   refreshGyroFactors();
   auto kfs = windowKeyframes();
   seedTerrain(kfs, model_);
-  auto factors = buildFactors(kfs, map_.landmarks, model_, gauge_, &ledger_, map_.time_offset_s);
+  auto factors = buildFactors(kfs, map_.landmarks, model_, gauge_, &ledger_, map_.time_offset_s,
+                              map_.camera_height_offset_m);
   last_solve_ = {};
   last_solve_.keyframes = static_cast<int>(kfs.size());
   for (const auto& f : factors) last_solve_.lidar_factors += f.kind == FactorKind::kLidar;
@@ -448,6 +449,8 @@ void WindowCore::solveWindow() {
   so.max_time_s = options_.max_solver_time_s;
   so.time_offset_s = map_.time_offset_s;
   so.time_offset_max_s = options_.time_offset_max_s;
+  so.camera_height_offset_m = map_.camera_height_offset_m;
+  so.camera_height_offset_max_m = 5.0 * model_.camera_height_offset_sigma_m;
   const SolveSummary s = solveFactors(std::move(factors), kfs, map_.landmarks, model_, so);
   last_solve_.residual_blocks = s.residual_blocks;
   last_solve_.iterations = s.iterations;
@@ -458,7 +461,16 @@ void WindowCore::solveWindow() {
 }
 
 void WindowCore::labelGround() {
-  labelGroundLandmarks(map_.landmarks, model_, options_, label_ground_options_);
+  labelGroundLandmarks(map_.landmarks, heightCorrectedModel(), options_, label_ground_options_);
+}
+
+WindowModel WindowCore::heightCorrectedModel() const {
+  WindowModel model = model_;
+  if (estimatesCameraHeight(model_)) {
+    model.camera_height_m += map_.camera_height_offset_m[0];
+    model.camera_height_offset_sigma_m = 0.0;
+  }
+  return model;
 }
 
 void WindowCore::marginalize() {
@@ -533,7 +545,8 @@ void WindowCore::refineAll() {
   std::vector<WindowGauge> gauges = segment_gauges_;
   for (WindowGauge& g : gauges)
     if (auto T_W_B = keyframePose(g.kf_id)) g.T_W_B = *T_W_B;
-  stats_.refine = refineKeyframes(kfs, map_.last_point_W, model_, gauges, options_,
+  // The camera height as corrected online, held.
+  stats_.refine = refineKeyframes(kfs, map_.last_point_W, heightCorrectedModel(), gauges, options_,
                                   label_ground_options_, map_.time_offset_s);
   if (!stats_.refine->usable) note("full refinement failed: the online keyframe poses are kept");
   for (const Keyframe* kf : kfs) frames_.keepPoses(*kf);
@@ -563,6 +576,7 @@ EstimatorStats WindowCore::stats() const {
   EstimatorStats s = stats_;  // plus the keyframes still in the window
   for (const auto& kf : map_.keyframes) countLidar(*kf, s);
   if (estimatesTimeOffset(model_)) s.time_offset_s = map_.time_offset_s[0];
+  if (estimatesCameraHeight(model_)) s.camera_height_offset_m = map_.camera_height_offset_m[0];
   return s;
 }
 

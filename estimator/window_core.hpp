@@ -154,6 +154,8 @@ class WindowCore {
   void labelGround();
   void marginalize();
   void settleFrames();
+  /// The model with the camera height as corrected by the window so far (no correction state).
+  WindowModel heightCorrectedModel() const;
   void resetWindow();
   /// A frame's pose predicted from the last one: the gyro's rotation (a prior of rot_sigma when
   /// the gyro gave one) and the constant velocity (decaying over long gaps); dt since the last

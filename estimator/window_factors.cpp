@@ -13,6 +13,7 @@
 #include "factors/lidar_range_factor.hpp"
 #include "factors/pose_prior_factor.hpp"
 #include "factors/rotation_tie_factor.hpp"
+#include "factors/scalar_prior_factor.hpp"
 #include "factors/terrain_plane_factor.hpp"
 #include "factors/time_offset_factor.hpp"
 
@@ -107,6 +108,8 @@ WindowModel makeWindowModel(const SensorSetup& setup, const WindowOptions& optio
   if (options.use_ground_height && setup.camera_height_m && *setup.camera_height_m > 0.0) {
     model.camera_height_m = *setup.camera_height_m;
     model.ground_sigma_m = options.ground_height_sigma_m;
+    if (options.estimate_camera_height && options.use_lidar && setup.has_lidar)
+      model.camera_height_offset_sigma_m = options.camera_height_sigma_m;
     model.terrain_planes = options.terrain_planes;
     model.terrain_slope_walk = options.terrain_slope_walk;
     model.terrain_height_walk = options.terrain_height_walk;
@@ -145,7 +148,8 @@ void seedTerrain(const std::vector<Keyframe*>& keyframes, const WindowModel& mod
 std::vector<FactorSpec> buildFactors(const std::vector<Keyframe*>& keyframes,
                                      std::unordered_map<TrackId, Landmark>& landmarks,
                                      const WindowModel& model, const WindowGauge& gauge,
-                                     const FactorLedger* ledger, double* time_offset_s) {
+                                     const FactorLedger* ledger, double* time_offset_s,
+                                     double* camera_height_offset_m) {
   std::vector<FactorSpec> out;
   const auto kf_of = keyframesById(keyframes);
 
@@ -232,15 +236,25 @@ std::vector<FactorSpec> buildFactors(const std::vector<Keyframe*>& keyframes,
       out.push_back(std::move(w));
     }
   }
+  const bool with_height =
+      camera_height_offset_m != nullptr && estimatesCameraHeight(model);
+  bool height_used = false;
   if (model.camera_height_m > 0.0) {
     for (auto& [id, lm] : landmarks) {
       if (!lm.on_ground || !kf_of.count(lm.anchor_kf) || !(lm.rho[0] > 0.0)) continue;
       FactorSpec f;
       f.kind = FactorKind::kGround;
-      f.cost = std::make_unique<factors::GroundHeightFactor>(
-          lm.bearing_anchor_C, lm.ground_up_C, model.camera_height_m, model.ground_sigma_m);
+      if (with_height) {
+        f.cost = std::make_unique<factors::GroundHeightCorrectedFactor>(
+            lm.bearing_anchor_C, lm.ground_up_C, model.camera_height_m, model.ground_sigma_m);
+        f.blocks = {lm.rho, camera_height_offset_m};
+        height_used = true;
+      } else {
+        f.cost = std::make_unique<factors::GroundHeightFactor>(
+            lm.bearing_anchor_C, lm.ground_up_C, model.camera_height_m, model.ground_sigma_m);
+        f.blocks = {lm.rho};
+      }
       f.loss = std::make_unique<ceres::HuberLoss>(model.ground_huber);
-      f.blocks = {lm.rho};
       f.track = id;
       f.kf_id = lm.anchor_kf;
       out.push_back(std::move(f));
@@ -360,9 +374,20 @@ std::vector<FactorSpec> buildFactors(const std::vector<Keyframe*>& keyframes,
     // motion does not show it (a constant rate). It touches no keyframe: never marginalised.
     FactorSpec t;
     t.kind = FactorKind::kTimeOffsetPrior;
-    t.cost = std::make_unique<factors::TimeOffsetPriorFactor>(0.0, model.time_offset_sigma_s);
+    t.cost = std::make_unique<factors::ScalarPriorFactor>(0.0, model.time_offset_sigma_s);
     t.blocks = {time_offset_s};
     out.push_back(std::move(t));
+  }
+  if (height_used || (with_height && gauge.marginalization &&
+                      std::count(gauge.marginalization->keptBlocks().begin(),
+                                 gauge.marginalization->keptBlocks().end(),
+                                 camera_height_offset_m) > 0)) {
+    // About the rig's height, every solve, like the time offset's.
+    FactorSpec h;
+    h.kind = FactorKind::kCameraHeightPrior;
+    h.cost = std::make_unique<factors::ScalarPriorFactor>(0.0, model.camera_height_offset_sigma_m);
+    h.blocks = {camera_height_offset_m};
+    out.push_back(std::move(h));
   }
   if (gauge.marginalization) {
     FactorSpec m;

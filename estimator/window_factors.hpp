@@ -54,6 +54,9 @@ struct WindowModel {
   // this prior sigma about 0 when > 0 and there is a gyro, else held at its value.
   double time_offset_sigma_s = 0.0;
   double camera_height_m = 0.0;  // ground landmarks' depth below the camera, m (<= 0: no factor)
+  // A correction of camera_height_m (WindowMap::camera_height_offset_m): estimated with this
+  // prior sigma about 0 when > 0 (with a LiDAR to see it), else none.
+  double camera_height_offset_sigma_m = 0.0;
   double ground_sigma_m = 0.03;  // camera-height factor noise, m
   double ground_huber = 2.0;     // its Huber threshold, sigmas
   // Terrain planes (with a camera height): a ground landmark also lies on its anchor's terrain
@@ -85,7 +88,8 @@ enum class FactorKind {
   kGround,          // a ground landmark's height below its anchor camera
   kTerrain,         // a ground landmark on its anchor's terrain plane (track) or the plane's walk
   kRotationTie,     // a keyframe's vision orientation tied to its gyro chain's
-  kTimeOffsetPrior  // the camera-gyro time offset's prior (stays in the window)
+  kTimeOffsetPrior,   // the camera-gyro time offset's prior (stays in the window)
+  kCameraHeightPrior  // the camera height correction's prior (stays in the window)
 };
 
 /// The measurement a factor stands for: its kind, its landmark (-1: none) and its keyframe (the
@@ -162,12 +166,20 @@ void seedTerrain(const std::vector<Keyframe*>& keyframes, const WindowModel& mod
 /// the keyframes, or with fewer than one usable non-anchor observation, get no factor; nor do
 /// keyframes whose terrain plane is not seeded, nor measurements the ledger holds. With a
 /// time_offset_s block (WindowMap::time_offset_s) and estimatesTimeOffset(model), the gyro
-/// factors take it as a state and it gets its prior.
+/// factors take it as a state and it gets its prior; likewise the camera-height factors with a
+/// camera_height_offset_m block (WindowMap::camera_height_offset_m) and
+/// estimatesCameraHeight(model).
 std::vector<FactorSpec> buildFactors(const std::vector<Keyframe*>& keyframes,
                                      std::unordered_map<TrackId, Landmark>& landmarks,
                                      const WindowModel& model, const WindowGauge& gauge,
                                      const FactorLedger* ledger = nullptr,
-                                     double* time_offset_s = nullptr);
+                                     double* time_offset_s = nullptr,
+                                     double* camera_height_offset_m = nullptr);
+
+/// True when the model estimates a correction of the camera height (a height and a prior sigma).
+inline bool estimatesCameraHeight(const WindowModel& model) {
+  return model.camera_height_m > 0.0 && model.camera_height_offset_sigma_m > 0.0;
+}
 
 /// True when the model estimates the camera-gyro time offset (a gyro and a prior sigma).
 inline bool estimatesTimeOffset(const WindowModel& model) {

@@ -124,6 +124,9 @@ class WindowMap {
   /// of the image): one state for the whole run, in the marginalisation prior once a gyro factor
   /// has left the window. The window's gyro intervals are [t - this, t' - this].
   double time_offset_s[1] = {0.0};
+  /// The correction of the rig's camera height the camera-height factors use, m: one state for
+  /// the whole run, seen through the LiDAR's ranges and ground beams.
+  double camera_height_offset_m[1] = {0.0};
 
   Keyframe* find(int kf_id);
   const Keyframe* find(int kf_id) const;

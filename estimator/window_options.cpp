@@ -142,6 +142,9 @@ WindowOptions readWindowOptions(const Config& c) {
   o.use_ground_height = c.get<bool>(p + "use_ground_height", o.use_ground_height);
   o.ground_height_sigma_m =
       c.getInRange(p + "ground_height_sigma_m", o.ground_height_sigma_m, 1e-4, 10.0);
+  o.estimate_camera_height = c.get<bool>(p + "estimate_camera_height", o.estimate_camera_height);
+  o.camera_height_sigma_m =
+      c.getInRange(p + "camera_height_sigma_m", o.camera_height_sigma_m, 1e-4, 1.0);
   o.ground_max_distance_heights =
       c.getInRange(p + "ground_max_distance_heights", o.ground_max_distance_heights, 0.1, 1000.0);
   o.ground_min_depression_deg =

@@ -107,6 +107,11 @@ struct WindowOptions {
   // Camera-height factor (ground landmarks near the camera; needs the rig's camera height).
   bool use_ground_height = true;        // false: scale from the LiDAR (and initialisation) only
   double ground_height_sigma_m = 0.06;  // noise of a ground point's height below the camera, m
+  bool estimate_camera_height = false;  // with a LiDAR: a correction of the rig's camera height is
+                                        // a state (on rough ground the ground points the camera
+                                        // sees lie higher or lower than the rig's height says).
+                                        // Off: it lets the LiDAR's own scale bias in (README)
+  double camera_height_sigma_m = 0.02;  // its prior about 0 (bounded to 5 of these), m
   double ground_max_distance_heights = 6.0;     // ground points used up to this distance, in camera
                                                 // heights (6 m at 1 m; 9.9 m at KITTI's 1.65 m,
                                                 // whose nearest visible ground is 6.3 m away)

@@ -32,6 +32,7 @@ SolveSummary solveFactors(std::vector<FactorSpec> factors, const std::vector<Key
   std::unordered_map<TrackId, double> rho_backup;
   for (const auto& [id, lm] : landmarks) rho_backup[id] = lm.rho[0];
   const double td_backup = options.time_offset_s ? options.time_offset_s[0] : 0.0;
+  const double dh_backup = options.camera_height_offset_m ? options.camera_height_offset_m[0] : 0.0;
 
   ceres::Problem problem;
   for (Keyframe* kf : keyframes) {
@@ -68,6 +69,13 @@ SolveSummary solveFactors(std::vector<FactorSpec> factors, const std::vector<Key
     }
   }
 
+  if (options.camera_height_offset_m && problem.HasParameterBlock(options.camera_height_offset_m)) {
+    problem.SetParameterLowerBound(options.camera_height_offset_m, 0,
+                                   -options.camera_height_offset_max_m);
+    problem.SetParameterUpperBound(options.camera_height_offset_m, 0,
+                                   options.camera_height_offset_max_m);
+  }
+
   ceres::Solver::Options so;
   so.linear_solver_type = options.linear_solver == LinearSolver::kSparseSchur ? ceres::SPARSE_SCHUR
                                                                               : ceres::DENSE_SCHUR;
@@ -92,8 +100,11 @@ SolveSummary solveFactors(std::vector<FactorSpec> factors, const std::vector<Key
                            kf->q_W_G[0] + kf->q_W_G[1] + kf->q_W_G[2] + kf->q_W_G[3]);
   for (const auto& [id, lm] : landmarks) finite = finite && std::isfinite(lm.rho[0]);
   if (options.time_offset_s) finite = finite && std::isfinite(options.time_offset_s[0]);
+  if (options.camera_height_offset_m)
+    finite = finite && std::isfinite(options.camera_height_offset_m[0]);
   if (!finite) {
     if (options.time_offset_s) options.time_offset_s[0] = td_backup;
+    if (options.camera_height_offset_m) options.camera_height_offset_m[0] = dh_backup;
     for (std::size_t k = 0; k < keyframes.size(); ++k) {
       std::copy_n(kf_backup[k].q, 4, keyframes[k]->q_W_B);
       std::copy_n(kf_backup[k].g, 4, keyframes[k]->q_W_G);

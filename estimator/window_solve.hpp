@@ -19,6 +19,9 @@ struct SolveOptions {
   double* time_offset_s = nullptr;  // the window's time offset block when the factors hold it:
   double time_offset_max_s = 0.1;   // bounded to +- this, and restored with the rest on failure
   bool hold_time_offset = false;    // ... or held at its value
+  double* camera_height_offset_m = nullptr;  // the camera height's correction block when the
+  double camera_height_offset_max_m = 0.1;   // factors hold it: bounded to +- this, restored on
+                                             // failure
 };
 
 struct SolveSummary {

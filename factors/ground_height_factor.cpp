@@ -17,4 +17,18 @@ bool GroundHeightFactor::Evaluate(double const* const* parameters, double* resid
   return true;
 }
 
+GroundHeightCorrectedFactor::GroundHeightCorrectedFactor(const Vec3& bearing_Ca, const Vec3& up_Ca,
+                                                         double camera_height_m, double sigma_m)
+    : plain_(bearing_Ca, up_Ca, camera_height_m, sigma_m), inv_sigma_(1.0 / sigma_m) {}
+
+bool GroundHeightCorrectedFactor::Evaluate(double const* const* parameters, double* residuals,
+                                           double** jacobians) const {
+  double* plain_jacobians[1] = {jacobians ? jacobians[0] : nullptr};
+  if (!plain_.Evaluate(parameters, residuals, jacobians ? plain_jacobians : nullptr))
+    return false;
+  residuals[0] -= parameters[1][0] * inv_sigma_;
+  if (jacobians && jacobians[1]) jacobians[1][0] = -inv_sigma_;
+  return true;
+}
+
 }  // namespace ovo::factors

@@ -27,4 +27,20 @@ class GroundHeightFactor final : public ceres::SizedCostFunction<1, 1> {
   double height_m_, inv_sigma_;
 };
 
+/// The same with a correction dh of the camera height as a state (the camera's height above the
+/// ground it sees differs from the rig's on rough ground: the LiDAR measures it):
+///   r = (-(up_Ca . b_a) / rho - (h + dh)) / sigma_h.
+/// Blocks: rho[1], dh[1] (m). Evaluate fails as GroundHeightFactor's.
+class GroundHeightCorrectedFactor final : public ceres::SizedCostFunction<1, 1, 1> {
+ public:
+  GroundHeightCorrectedFactor(const Vec3& bearing_Ca, const Vec3& up_Ca, double camera_height_m,
+                              double sigma_m);
+  bool Evaluate(double const* const* parameters, double* residuals,
+                double** jacobians) const override;
+
+ private:
+  GroundHeightFactor plain_;
+  double inv_sigma_;
+};
+
 }  // namespace ovo::factors

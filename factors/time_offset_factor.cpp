@@ -53,14 +53,4 @@ bool GyroTimeOffsetFactor::Evaluate(double const* const* parameters, double* res
   return true;
 }
 
-TimeOffsetPriorFactor::TimeOffsetPriorFactor(double td0_s, double sigma_s)
-    : td0_s_(td0_s), inv_sigma_(1.0 / std::max(sigma_s, 1e-9)) {}
-
-bool TimeOffsetPriorFactor::Evaluate(double const* const* parameters, double* residuals,
-                                     double** jacobians) const {
-  residuals[0] = inv_sigma_ * (parameters[0][0] - td0_s_);
-  if (jacobians && jacobians[0]) jacobians[0][0] = inv_sigma_;
-  return true;
-}
-
 }  // namespace ovo::factors

@@ -33,16 +33,6 @@ class GyroTimeOffsetFactor final : public ceres::SizedCostFunction<3, 4, 4, 3, 1
   double td_lin_s_;
 };
 
-/// r = (td - td0) / sigma; sigma in s (> 0). Block: td[1] (s).
-class TimeOffsetPriorFactor final : public ceres::SizedCostFunction<1, 1> {
- public:
-  TimeOffsetPriorFactor(double td0_s, double sigma_s);
-  bool Evaluate(double const* const* parameters, double* residuals,
-                double** jacobians) const override;
 
- private:
-  double td0_s_;
-  double inv_sigma_;
-};
 
 }  // namespace ovo::factors

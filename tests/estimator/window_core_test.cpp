@@ -118,6 +118,36 @@ TEST(WindowCore, TracksADriveWithMetricScaleFromTheLidar) {
   EXPECT_GT(r.stats.frames_tracked, static_cast<int>(0.6 * seq.frames.size()));  // init: ~1.5 s
 }
 
+// The rig's camera height 3 cm short (0.97 m for the true 1.0 m; on rough ground the ground the
+// camera sees sits off the height the rig gives): with estimate_camera_height the window
+// estimates the correction from the LiDAR, and its final distance comes out nearer the truth than with the
+// rig's height held. Measured: correction +2.86 cm, distance error 0.07 % against 0.68 % held.
+TEST(WindowCore, EstimatesACorrectionOfTheRigsCameraHeight) {
+  SyntheticOptions o;
+  o.duration_s = 10.0;
+  auto seq = makeSyntheticSequence(o);
+  const double true_height = seq.setup.camera_height_m.value();
+  seq.setup.camera_height_m = true_height - 0.03;
+  const SE3 T_true = truthRel(seq, seq.frames.size() - 1);
+  const auto distanceErr = [&](const RunResult& r) {
+    return std::abs(r.trajectory.back().T_W_B.translation().norm() / T_true.translation().norm() -
+                    1.0);
+  };
+  WindowOptions options;
+  options.estimate_camera_height = true;
+  const RunResult corrected = run(seq, options);
+  const RunResult held = run(seq);  // the default: the rig's height
+  expectAllFinite(corrected);
+  ASSERT_TRUE(corrected.stats.camera_height_offset_m.has_value());
+  EXPECT_FALSE(held.stats.camera_height_offset_m.has_value());
+  RecordProperty("correction_cm", std::to_string(100.0 * *corrected.stats.camera_height_offset_m));
+  RecordProperty("distance_err_pct", std::to_string(100.0 * distanceErr(corrected)));
+  RecordProperty("distance_err_pct_held", std::to_string(100.0 * distanceErr(held)));
+  EXPECT_GT(*corrected.stats.camera_height_offset_m, 0.015);
+  EXPECT_LT(*corrected.stats.camera_height_offset_m, 0.045);
+  EXPECT_LT(distanceErr(corrected), distanceErr(held));
+}
+
 TEST(WindowCore, HoldsThePoseDuringAStandstill) {
   SyntheticOptions o;
   o.duration_s = 6.0;

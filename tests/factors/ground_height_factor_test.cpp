@@ -42,6 +42,21 @@ TEST(GroundHeightFactor, JacobianMatchesNumeric) {
   testing::expectJacobiansMatch(f, {{0.8 / s.depth_m}}, {false});
 }
 
+// With the height's correction as a state: a camera 1 m up with the rig saying 0.98 m is right
+// once the correction is +2 cm; each cm of correction moves the residual by one cm in sigmas.
+TEST(GroundHeightCorrectedFactor, TheCorrectionAddsToTheRigsHeight) {
+  const GroundScene s = groundScene();
+  const GroundHeightCorrectedFactor f(s.bearing_C, s.up_C, 0.98, 0.02);
+  EXPECT_NEAR(testing::evaluate(f, {{1.0 / s.depth_m}, {0.02}})[0], 0.0, 1e-12);
+  EXPECT_NEAR(testing::evaluate(f, {{1.0 / s.depth_m}, {0.0}})[0], 1.0, 1e-9);
+  EXPECT_NEAR(testing::evaluate(f, {{1.0 / s.depth_m}, {0.04}})[0], -1.0, 1e-9);
+  testing::expectJacobiansMatch(f, {{0.8 / s.depth_m}, {0.013}}, {false, false});
+  EXPECT_EQ(testing::evaluate(GroundHeightCorrectedFactor(-s.bearing_C, s.up_C, 1.0, 0.02),
+                              {{0.5}, {0.0}})
+                .size(),
+            0);
+}
+
 TEST(GroundHeightFactor, RejectsABearingAboveTheHorizon) {
   const GroundScene s = groundScene();
   const GroundHeightFactor f(-s.bearing_C, s.up_C, 1.0, 0.02);

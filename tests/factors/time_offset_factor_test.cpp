@@ -102,13 +102,5 @@ TEST(GyroTimeOffsetFactor, AConstantRateDoesNotSeeTheOffset) {
   for (double v : r) EXPECT_LT(v, 1e-6);
 }
 
-TEST(TimeOffsetPriorFactor, IsTheWhitenedDistanceFromItsMean) {
-  const TimeOffsetPriorFactor f(0.01, 0.005);
-  const auto r = testing::evaluate(f, {{0.02}});
-  ASSERT_EQ(r.size(), 1);
-  EXPECT_NEAR(r[0], 2.0, 1e-12);
-  testing::expectJacobiansMatch(f, {{0.004}}, {false});
-}
-
 }  // namespace
 }  // namespace ovo::factors
