@@ -21,7 +21,7 @@ const Rect2 kPlateau{-10.0, 50.0, -10.0, 20.0};
 TEST(HeightField, DerivativesMatchFiniteDifferences) {
   const HeightField field(0.03, 1.5, 7, kPlateau);
   const double h = 1e-4;
-  for (const Vec2 p : {Vec2(1.3, 2.7), Vec2(17.1, -4.2), Vec2(33.3, 12.9)}) {
+  for (const Vec2& p : {Vec2(1.3, 2.7), Vec2(17.1, -4.2), Vec2(33.3, 12.9)}) {
     const Vec2 u(0.7, -0.4);
     const HeightSample s = field.sample(p.x(), p.y(), u);
     EXPECT_NEAR(s.h, field.height(p.x(), p.y()), 1e-15);
@@ -74,7 +74,7 @@ TEST(HeightField, WorldGroundIsThePlanePlusTheFieldWithItsNormal) {
   const VineyardWorld world(w, 4);
   ASSERT_TRUE(world.heightField());
   const double h = 1e-5;
-  for (const Vec2 p : {Vec2(3.0, 4.0), Vec2(25.0, 7.5), Vec2(42.0, -2.0)}) {
+  for (const Vec2& p : {Vec2(3.0, 4.0), Vec2(25.0, 7.5), Vec2(42.0, -2.0)}) {
     const double z = world.groundHeight(p.x(), p.y());
     EXPECT_NEAR(z, 0.08 * p.x() + 0.03 * p.y() + world.heightField()->height(p.x(), p.y()), 1e-12);
     const double dzdx =

@@ -90,7 +90,9 @@ TEST(ImuJitter, StampsScatterAroundTheTrueTimesWhileTheSamplesStayTheSame) {
     ASSERT_EQ(imu[k].gyro_radps, exact[k].gyro_radps);
     ASSERT_EQ(imu[k].accel_mps2, exact[k].accel_mps2);
     EXPECT_EQ(bias[k].t_ns, exact[k].t_ns);  // the truth stays at the true times
-    if (k > 0) ASSERT_GT(imu[k].t_ns, imu[k - 1].t_ns);
+    if (k > 0) {
+      ASSERT_GT(imu[k].t_ns, imu[k - 1].t_ns);
+    }
     const double e = toSeconds(imu[k].t_ns - exact[k].t_ns);
     sum += e;
     sum2 += e * e;
