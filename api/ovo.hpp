@@ -66,7 +66,7 @@ struct OdometryOptions {
   /// poses are those of `ovo run`. true (live): two threads of their own process the images; when
   /// they fall behind the oldest waiting image is dropped; the callback runs on their thread.
   bool realtime = false;
-  /// true: trajectory() gives every frame's final pose (memory grows with the run, about 100
+  /// true: trajectory() gives every frame's final pose (memory grows with the run, about 170
   /// bytes a frame). false: only the recent past that the estimator may still change, so that
   /// memory stays flat over a working day; take the poses from the callback.
   bool keep_trajectory = true;

@@ -190,10 +190,13 @@ Camera cameraFromYaml(const fs::path& file) {
         where(file, cam["camera_model"]), model);
   const auto size = numbers(file, requireKey(file, cam, "resolution"), "resolution", 2, 2);
   const auto k = numbers(file, requireKey(file, cam, "intrinsics"), "intrinsics", 4, 4);
+  // Checked before the conversion: a double beyond int's range does not convert (fuzzing).
+  constexpr double kMaxSidePx = 100000.0;
+  if (!(size[0] >= 1.0 && size[0] <= kMaxSidePx && size[1] >= 1.0 && size[1] <= kMaxSidePx) ||
+      size[0] != std::floor(size[0]) || size[1] != std::floor(size[1]))
+    fail("{}: 'resolution' must be two positive whole numbers [width, height], at most {}",
+         where(file, cam["resolution"]), kMaxSidePx);
   const int width = static_cast<int>(size[0]), height = static_cast<int>(size[1]);
-  if (size[0] != width || size[1] != height || width <= 0 || height <= 0)
-    fail("{}: 'resolution' must be two positive whole numbers [width, height]",
-         where(file, cam["resolution"]));
   if (!(k[0] > 0 && k[1] > 0))
     fail("{}: 'intrinsics' fu and fv must be positive", where(file, cam["intrinsics"]));
   if (!(k[2] >= 0 && k[2] < width && k[3] >= 0 && k[3] < height))

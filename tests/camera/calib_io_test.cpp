@@ -145,6 +145,11 @@ TEST(CalibIo, BadYamlNamesFileAndKey) {
   // A Kalibr cam0 that is a value, not a mapping: yaml-cpp's BadSubscript escaped (fuzzing).
   expectYamlError("cam0:\n  T_imu_cam:90\n", "'cam0' must be a mapping");
   expectYamlError("cam0: [1, 2]\n", "'cam0' must be a mapping");
+  // A side beyond int's range was converted to int first (undefined; UBSan under fuzzing).
+  const std::string intr = "intrinsics: [458, 457, 367, 248]\n";
+  expectYamlError("camera_model: pinhole\nresolution: [5.5e59, 480]\n" + intr, "'resolution'");
+  expectYamlError("camera_model: pinhole\nresolution: [752, -480]\n" + intr, "'resolution'");
+  expectYamlError("camera_model: pinhole\nresolution: [752.5, 480]\n" + intr, "whole numbers");
 }
 
 }  // namespace
