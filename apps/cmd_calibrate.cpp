@@ -11,7 +11,6 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
-#include <opencv2/imgcodecs.hpp>
 #include <regex>
 #include <set>
 
@@ -27,6 +26,7 @@
 #include "common/error.hpp"
 #include "frontend/frontend.hpp"
 #include "io/dataset.hpp"
+#include "io/image_decode.hpp"
 #include "io/staged_folder.hpp"
 
 namespace ovo::app {
@@ -105,9 +105,9 @@ std::vector<LoadedImage> loadImages(const std::vector<fs::path>& files,
   std::vector<LoadedImage> images(files.size());
   tbb::parallel_for(std::size_t{0}, files.size(), [&](std::size_t k) {
     images[k].name = files[k].filename().string();
-    try {
-      images[k].grey = cv::imread(files[k].string(), cv::IMREAD_GRAYSCALE);
-    } catch (const cv::Exception&) {
+    try {  // ovo's reader: only the image formats, checked before OpenCV sees them
+      images[k].grey = io::readImageGrey(files[k]);
+    } catch (const Error&) {
       images[k].grey.release();
     }
   });

@@ -121,6 +121,13 @@ ImageHeader checkImageBytes(Bytes bytes, const std::string& name) {
     return checkPng(bytes, name);
   if (bytes.size() >= 3 && bytes[0] == 0xFF && bytes[1] == 0xD8 && bytes[2] == 0xFF)
     return checkJpeg(bytes, name);
+  const auto starts = [&](std::initializer_list<std::uint8_t> magic) {
+    return bytes.size() >= magic.size() && std::equal(magic.begin(), magic.end(), bytes.begin());
+  };
+  if (starts({'B', 'M'})) return {"bmp", 0, 0};
+  if (starts({'I', 'I', 42, 0}) || starts({'M', 'M', 0, 42})) return {"tiff", 0, 0};
+  if (bytes.size() >= 2 && bytes[0] == 'P' && bytes[1] >= '1' && bytes[1] <= '6')
+    return {"pnm", 0, 0};
   return {"other", 0, 0};
 }
 
@@ -141,6 +148,11 @@ void checkSize(const std::string& name, int width, int height, const ExpectedSiz
 cv::Mat decodeImageGrey(Bytes bytes, const std::string& name, const ExpectedSize& expected) {
   if (bytes.empty()) refuse("decode", name, "empty file (expected an 8-bit PNG or JPEG)");
   const ImageHeader h = checkImageBytes(bytes, name);
+  // Only the formats a camera's images come in go to OpenCV: it picks a decoder by the content,
+  // and some of its libraries abort the process on a bad file (GDCM's assert on a DICOM-like
+  // file, found by fuzzing).
+  if (h.format == "other")
+    refuse("decode", name, "not a PNG, JPEG, BMP, TIFF or PGM/PPM image (its first bytes say so)");
   if (h.width > 0) {
     checkSize(name, h.width, h.height, expected);
     if (std::int64_t{h.width} * h.height > kMaxImagePixels)

@@ -19,12 +19,13 @@ namespace ovo::io {
 inline constexpr std::int64_t kMaxImagePixels = 64LL << 20;
 
 struct ImageHeader {
-  std::string format;  // "png", "jpeg" or "other" (not checked)
+  std::string format;  // "png", "jpeg" (checked), "bmp", "tiff", "pnm" (by their magic) or "other"
   int width = 0, height = 0;
 };
 
 /// Checks a PNG's or JPEG's structure and returns what its header says; throws a RecordError
-/// (reason "decode") naming `name` and what is wrong. Other formats: {"other", 0, 0}.
+/// (reason "decode") naming `name` and what is wrong. BMP, TIFF and PGM/PPM: their format by the
+/// magic bytes, size 0; anything else {"other", 0, 0} (decodeImageGrey refuses it).
 ImageHeader checkImageBytes(std::span<const std::uint8_t> bytes, const std::string& name);
 
 /// The size an image must have and what says so, for messages ("the camera calibration (FILE)").
