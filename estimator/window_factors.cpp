@@ -367,28 +367,26 @@ std::vector<FactorSpec> buildFactors(const std::vector<Keyframe*>& keyframes,
       out.push_back(std::move(b));
     }
   }
-  if (offset_used || (with_offset && gauge.marginalization &&
-                      std::count(gauge.marginalization->keptBlocks().begin(),
-                                 gauge.marginalization->keptBlocks().end(), time_offset_s) > 0)) {
-    // About the rig's value, every solve: a plausibility bound that holds the offset while the
-    // motion does not show it (a constant rate). It touches no keyframe: never marginalised.
-    FactorSpec t;
-    t.kind = FactorKind::kTimeOffsetPrior;
-    t.cost = std::make_unique<factors::ScalarPriorFactor>(0.0, model.time_offset_sigma_s);
-    t.blocks = {time_offset_s};
-    out.push_back(std::move(t));
-  }
-  if (height_used || (with_height && gauge.marginalization &&
-                      std::count(gauge.marginalization->keptBlocks().begin(),
-                                 gauge.marginalization->keptBlocks().end(),
-                                 camera_height_offset_m) > 0)) {
-    // About the rig's height, every solve, like the time offset's.
-    FactorSpec h;
-    h.kind = FactorKind::kCameraHeightPrior;
-    h.cost = std::make_unique<factors::ScalarPriorFactor>(0.0, model.camera_height_offset_sigma_m);
-    h.blocks = {camera_height_offset_m};
-    out.push_back(std::move(h));
-  }
+  // The run's scalar states, each about the rig's value, in every solve that holds the state (a
+  // factor of it, or the marginalisation prior): a plausibility bound that holds the time offset
+  // while the motion does not show it (a constant rate), and the camera height while the LiDAR
+  // sees little. They touch no keyframe: never marginalised.
+  const auto scalarPrior = [&](double* block, bool used, FactorKind kind, double sigma) {
+    const auto& kept = gauge.marginalization ? gauge.marginalization->keptBlocks()
+                                             : std::vector<double*>{};
+    if (!used && std::find(kept.begin(), kept.end(), block) == kept.end()) return;
+    FactorSpec p;
+    p.kind = kind;
+    p.cost = std::make_unique<factors::ScalarPriorFactor>(0.0, sigma);
+    p.blocks = {block};
+    out.push_back(std::move(p));
+  };
+  if (with_offset)
+    scalarPrior(time_offset_s, offset_used, FactorKind::kTimeOffsetPrior,
+                model.time_offset_sigma_s);
+  if (with_height)
+    scalarPrior(camera_height_offset_m, height_used, FactorKind::kCameraHeightPrior,
+                model.camera_height_offset_sigma_m);
   if (gauge.marginalization) {
     FactorSpec m;
     m.kind = FactorKind::kMarginal;
