@@ -152,7 +152,9 @@ cv::Mat decodeImageGrey(Bytes bytes, const std::string& name, const ExpectedSize
   // and some of its libraries abort the process on a bad file (GDCM's assert on a DICOM-like
   // file, found by fuzzing).
   if (h.format == "other")
-    refuse("decode", name, "not a PNG, JPEG, BMP, TIFF or PGM/PPM image (its first bytes say so)");
+    refuse("decode", name,
+           "cannot decode the image (not a PNG, JPEG, BMP, TIFF or PGM/PPM image by its first "
+           "bytes)");
   if (h.width > 0) {
     checkSize(name, h.width, h.height, expected);
     if (std::int64_t{h.width} * h.height > kMaxImagePixels)
