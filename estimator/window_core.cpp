@@ -447,10 +447,9 @@ void WindowCore::solveWindow() {
   so.linear_solver = options_.linear_solver;
   so.max_iterations = options_.max_iterations;
   so.max_time_s = options_.max_solver_time_s;
-  so.time_offset_s = map_.time_offset_s;
-  so.time_offset_max_s = options_.time_offset_max_s;
-  so.camera_height_offset_m = map_.camera_height_offset_m;
-  so.camera_height_offset_max_m = 5.0 * model_.camera_height_offset_sigma_m;
+  so.time_offset = {map_.time_offset_s, options_.time_offset_max_s};
+  so.camera_height_offset = {map_.camera_height_offset_m,
+                             5.0 * model_.camera_height_offset_sigma_m};
   const SolveSummary s = solveFactors(std::move(factors), kfs, map_.landmarks, model_, so);
   last_solve_.residual_blocks = s.residual_blocks;
   last_solve_.iterations = s.iterations;

@@ -8,6 +8,10 @@
 namespace ovo::estimator {
 namespace {
 
+SettledPose settled(Timestamp t_ns, const SE3& T) {
+  return {t_ns, Eigen::Quaterniond(T.linear()), T.translation()};
+}
+
 SE3 pose(const SettledPose& p) {
   SE3 T = SE3::Identity();
   T.linear() = p.q_W_B.toRotationMatrix();
@@ -47,10 +51,7 @@ void FrameLog::settle(Timestamp before_ns, const KeyframeLookup& keyframe_state)
   while (!open_.empty() && open_.front().t_ns < before_ns) {
     const FrameRecord& r = open_.front();
     if (r.ref_kf >= 0 && kf_states_.count(r.ref_kf) == 0) break;  // its keyframe may still move
-    if (keep_history_) {
-      const SE3 T = finalPose(r, keyframe_state);
-      settled_.push_back({r.t_ns, Eigen::Quaterniond(T.linear()), T.translation()});
-    }
+    if (keep_history_) settled_.push_back(settled(r.t_ns, finalPose(r, keyframe_state)));
     open_.pop_front();
     ++settled_count_;
   }
@@ -62,8 +63,7 @@ void FrameLog::settle(Timestamp before_ns, const KeyframeLookup& keyframe_state)
     const auto t = kf_times_.find(it->first);
     if (t != kf_times_.end() && t->second >= before_ns) break;
     if (keep_history_ && t != kf_times_.end())
-      settled_keyframes_.push_back(
-          {t->second, Eigen::Quaterniond(it->second.body.linear()), it->second.body.translation()});
+      settled_keyframes_.push_back(settled(t->second, it->second.body));
     if (t != kf_times_.end()) kf_times_.erase(t);
     it = kf_states_.erase(it);
   }

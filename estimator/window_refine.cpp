@@ -228,12 +228,10 @@ RefineInfo refineKeyframes(const std::vector<Keyframe*>& keyframes,
     SolveOptions so;
     so.linear_solver = LinearSolver::kSparseSchur;
     so.max_iterations = options.refine_iterations;
-    so.time_offset_s = time_offset_s ? td : nullptr;
-    so.time_offset_max_s = options.time_offset_max_s;
     // Held at the online estimate: the gyro intervals of the keyframes that left the window were
     // made at the offset of their time (the samples are gone), and the first-order shift of the
     // earliest, made before the estimate settled, is too coarse to estimate the offset from.
-    so.hold_time_offset = true;
+    so.time_offset = {time_offset_s ? td : nullptr, options.time_offset_max_s, /*hold=*/true};
     const SolveSummary s = solveFactors(std::move(factors), kfs, landmarks, model, so);
     ++info.passes;
     info.iterations += s.iterations;

@@ -3,6 +3,7 @@
 #include <ceres/ceres.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 
@@ -31,8 +32,10 @@ SolveSummary solveFactors(std::vector<FactorSpec> factors, const std::vector<Key
   }
   std::unordered_map<TrackId, double> rho_backup;
   for (const auto& [id, lm] : landmarks) rho_backup[id] = lm.rho[0];
-  const double td_backup = options.time_offset_s ? options.time_offset_s[0] : 0.0;
-  const double dh_backup = options.camera_height_offset_m ? options.camera_height_offset_m[0] : 0.0;
+  const std::array<ScalarState, 2> scalars = {options.time_offset, options.camera_height_offset};
+  std::array<double, 2> scalar_backup{};
+  for (std::size_t i = 0; i < scalars.size(); ++i)
+    if (scalars[i].block) scalar_backup[i] = scalars[i].block[0];
 
   ceres::Problem problem;
   for (Keyframe* kf : keyframes) {
@@ -60,20 +63,14 @@ SolveSummary solveFactors(std::vector<FactorSpec> factors, const std::vector<Key
     lm.rho[0] = std::clamp(lm.rho[0], model.min_rho, model.max_rho);
   }
 
-  if (options.time_offset_s && problem.HasParameterBlock(options.time_offset_s)) {
-    if (options.hold_time_offset) {
-      problem.SetParameterBlockConstant(options.time_offset_s);
+  for (const ScalarState& x : scalars) {
+    if (!x.block || !problem.HasParameterBlock(x.block)) continue;
+    if (x.hold) {
+      problem.SetParameterBlockConstant(x.block);
     } else {
-      problem.SetParameterLowerBound(options.time_offset_s, 0, -options.time_offset_max_s);
-      problem.SetParameterUpperBound(options.time_offset_s, 0, options.time_offset_max_s);
+      problem.SetParameterLowerBound(x.block, 0, -x.max_abs);
+      problem.SetParameterUpperBound(x.block, 0, x.max_abs);
     }
-  }
-
-  if (options.camera_height_offset_m && problem.HasParameterBlock(options.camera_height_offset_m)) {
-    problem.SetParameterLowerBound(options.camera_height_offset_m, 0,
-                                   -options.camera_height_offset_max_m);
-    problem.SetParameterUpperBound(options.camera_height_offset_m, 0,
-                                   options.camera_height_offset_max_m);
   }
 
   ceres::Solver::Options so;
@@ -99,12 +96,10 @@ SolveSummary solveFactors(std::vector<FactorSpec> factors, const std::vector<Key
                            kf->b_g[2] + kf->terrain[0] + kf->terrain[1] + kf->terrain[2] +
                            kf->q_W_G[0] + kf->q_W_G[1] + kf->q_W_G[2] + kf->q_W_G[3]);
   for (const auto& [id, lm] : landmarks) finite = finite && std::isfinite(lm.rho[0]);
-  if (options.time_offset_s) finite = finite && std::isfinite(options.time_offset_s[0]);
-  if (options.camera_height_offset_m)
-    finite = finite && std::isfinite(options.camera_height_offset_m[0]);
+  for (const ScalarState& x : scalars) finite = finite && (!x.block || std::isfinite(x.block[0]));
   if (!finite) {
-    if (options.time_offset_s) options.time_offset_s[0] = td_backup;
-    if (options.camera_height_offset_m) options.camera_height_offset_m[0] = dh_backup;
+    for (std::size_t i = 0; i < scalars.size(); ++i)
+      if (scalars[i].block) scalars[i].block[0] = scalar_backup[i];
     for (std::size_t k = 0; k < keyframes.size(); ++k) {
       std::copy_n(kf_backup[k].q, 4, keyframes[k]->q_W_B);
       std::copy_n(kf_backup[k].g, 4, keyframes[k]->q_W_G);

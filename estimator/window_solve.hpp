@@ -11,17 +11,22 @@
 
 namespace ovo::estimator {
 
+/// One scalar state of the whole run (WindowMap::time_offset_s, camera_height_offset_m) when the
+/// factors hold it: bounded to +- max_abs, or held at its value, and restored with the rest on
+/// failure.
+struct ScalarState {
+  double* block = nullptr;
+  double max_abs = 0.1;
+  bool hold = false;
+};
+
 struct SolveOptions {
   LinearSolver linear_solver = LinearSolver::kDenseSchur;
   int max_iterations = 8;
   double max_time_s = 0.0;  // 0: unlimited
   int num_threads = 1;
-  double* time_offset_s = nullptr;  // the window's time offset block when the factors hold it:
-  double time_offset_max_s = 0.1;   // bounded to +- this, and restored with the rest on failure
-  bool hold_time_offset = false;    // ... or held at its value
-  double* camera_height_offset_m = nullptr;  // the camera height's correction block when the
-  double camera_height_offset_max_m = 0.1;   // factors hold it: bounded to +- this, restored on
-                                             // failure
+  ScalarState time_offset;           // s
+  ScalarState camera_height_offset;  // m
 };
 
 struct SolveSummary {
