@@ -292,7 +292,7 @@ int WindowCore::processTracked(const VisualFrame& frame, const Prediction& pred,
       triangulateNewLandmarks(map_, *kf, setup_.T_B_C, options_);
       associateLidar();
       solveWindow();
-      if (rescaleToLidar()) {
+      if (rescaleToLidar() || rescaleToGround()) {
         associateLidar();
         solveWindow();
       }
@@ -425,7 +425,22 @@ bool WindowCore::rescaleToLidar() {
   if (!ratio || !(*ratio > 0.0) || std::abs(*ratio - 1.0) <= options_.lidar_rescale_ratio)
     return false;
   rescaleWindow(1.0 / *ratio, map_, gauge_, frames_, {last_T_W_B_, velocity_W_});
+  scale_known_ = true;
   note("the LiDAR's ranges agreed on another scale than the window's: window rescaled to them");
+  return true;
+}
+
+bool WindowCore::rescaleToGround() {
+  // At least this many keyframes' planes, more than half within this fraction of their median.
+  constexpr int kMinKeyframes = 2;
+  constexpr double kAgreement = 0.1;
+  if (scale_known_ || !(model_.camera_height_m > 0.0)) return false;
+  const auto height =
+      windowGroundHeight(map_.landmarks, model_, label_ground_options_, kMinKeyframes, kAgreement);
+  if (!height) return false;
+  rescaleWindow(model_.camera_height_m / *height, map_, gauge_, frames_, {last_T_W_B_, velocity_W_});
+  scale_known_ = true;
+  note("the window started without a scale: rescaled to the ground plane's camera height");
   return true;
 }
 

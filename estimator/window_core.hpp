@@ -143,6 +143,11 @@ class WindowCore {
   /// When the window's LiDAR ranges agree on a scale lidar_rescale_ratio off the window's, scales
   /// the window to them (window_rescale.hpp).
   bool rescaleToLidar();
+  /// A segment started without a scale (unit baseline) takes the ground plane's once the window's
+  /// keyframes agree on the camera's height in its units (windowGroundHeight): the window is
+  /// rescaled to the rig's camera height. Without it, the ground and LiDAR gates, made for a
+  /// window at its true scale, reject every measurement that would correct it, for good.
+  bool rescaleToGround();
   void solveWindow();
   /// Forgets the gyro samples no later preintegration needs (memory stays flat over hours).
   void trimGyro();
@@ -231,6 +236,7 @@ class WindowCore {
   // next segment starts from it instead of the loose first-start prior.
   std::optional<std::pair<Timestamp, Vec3>> carried_bias_;
   bool lidar_scale_ = false;  // the current segment's scale came from the LiDAR
+  bool scale_known_ = true;   // false: the segment started at a unit baseline (rescaleToGround)
 
   // Last frame.
   bool have_last_ = false;

@@ -77,6 +77,7 @@ bool WindowCore::tryInitialize(const VisualFrame& frame, const SE3& T_W_B_pred,
 void WindowCore::startWindow(const VisualFrame& frame, const InitialGeometry& g) {
   const Reference& ref = *reference_;
   lidar_scale_ = g.lidar_scale;
+  scale_known_ = g.scale_known;
   // The first keyframe's bias prior: a standstill before this initialisation (its mean rate),
   // a recent one before a restart, or the previous segment's estimate after a loss (whichever
   // is the tighter); else the loose first-start prior around the current bias.

@@ -223,6 +223,7 @@ WindowInitializer::Outcome WindowInitializer::attempt(
   }
   scale_deferrals_ = 0;
   scale_wait_since_.reset();
+  const bool scale_known = scale.has_value();
   if (!scale) {
     scale = 1.0;
     note_("initialisation without LiDAR or ground-plane scale: unit baseline");
@@ -233,6 +234,7 @@ WindowInitializer::Outcome WindowInitializer::attempt(
   geometry->T_W_B1 = ref.T_W_B * setup_.T_B_C * T_C1_C0.inverse() * setup_.T_B_C.inverse();
   geometry->scale = *scale;
   geometry->lidar_scale = lidar_scale;
+  geometry->scale_known = scale_known;
   *out = std::move(*geometry);
   return Outcome::kReady;
 }

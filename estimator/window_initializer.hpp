@@ -50,6 +50,7 @@ struct InitialGeometry {
   SE3 T_W_B1 = SE3::Identity();  // the frame's body pose
   double scale = 1.0;            // metres per unit baseline
   bool lidar_scale = false;      // the scale came from the LiDAR
+  bool scale_known = true;       // false: neither the LiDAR nor the ground gave one (unit baseline)
   TwoViewResult two_view;        // at unit baseline; points_index indexes ids and b0
   std::vector<TrackId> ids;      // the tracks the frame shares with the reference
   std::vector<Vec3> b0;          // their bearings in the reference

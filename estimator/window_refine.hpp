@@ -3,6 +3,7 @@
 // outlier removal between passes; plus the ground labelling it shares with the online window.
 #pragma once
 
+#include <optional>
 #include <string>
 #include <unordered_map>
 #include <vector>
@@ -21,6 +22,16 @@ namespace ovo::estimator {
 void labelGroundLandmarks(std::unordered_map<TrackId, Landmark>& landmarks,
                           const WindowModel& model, const WindowOptions& options,
                           const GroundPlaneOptions& ground_options);
+
+/// The camera's height over the ground in the window's units, for a window whose scale is not
+/// known (started at a unit baseline): the median of the planes fitted to each anchor keyframe's
+/// landmarks (as labelGroundLandmarks fits them, without its gate on the camera height), when at
+/// least `min_keyframes` give a plane and more than half of those agree with the median within
+/// `agreement` (a fraction); nullopt otherwise.
+std::optional<double> windowGroundHeight(const std::unordered_map<TrackId, Landmark>& landmarks,
+                                         const WindowModel& model,
+                                         const GroundPlaneOptions& ground_options,
+                                         int min_keyframes, double agreement);
 
 /// Re-optimises `keyframes` (time order, their current poses as the initial values) with every
 /// factor the run gathered. A track's sightings become landmarks spanning at most

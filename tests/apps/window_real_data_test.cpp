@@ -53,6 +53,21 @@ TEST(KittiWindow, FollowsTheFirstTurnAndHoldsTheGroundPlaneScale) {
   EXPECT_GT(t.at("peak_rss_mb").get<double>(), 0.0);
 }
 
+TEST(KittiWindow, AStartWithoutAScaleTakesTheGroundPlanesOnceTheyAgree) {
+  // With 16 features per matching cell and class (frontend.bin_max_features) the ground-plane
+  // scale does not come before the reference's tracks run out, and the window starts at a unit
+  // baseline (7x short). The ground and camera-height gates, made for a window at its scale, then
+  // rejected every plane: ATE 16 %, scale -49 %. Now the window takes the scale of its keyframes'
+  // ground planes once two agree (WindowCore::rescaleToGround). Measured: 0.51 %, scale -1.4 %.
+  OVO_REQUIRE_DATA("kitti07-first160/image_0/000000.png");
+  const auto m = runWindow("kitti07-first160", "--set frontend.bin_max_features=16");
+  const auto notes = m.at("notes").dump();
+  ASSERT_NE(notes.find("unit baseline"), std::string::npos) << notes;  // the case under test
+  EXPECT_NE(notes.find("rescaled to the ground plane"), std::string::npos) << notes;
+  EXPECT_LT(m.at("ate_pct").get<double>(), 1.5);
+  EXPECT_LT(std::abs(m.at("scale_err_pct").get<double>()), 5.0);
+}
+
 TEST(KittiWindow, FullRefinementKeepsTheGroundPlaneScale) {
   // `--refine full` without a LiDAR: only the camera-height factors hold the batch's scale. With
   // keyframe planes tilted up to 20 deg from the body's up they pulled it to -8.9 % (ATE 2.57 m,
