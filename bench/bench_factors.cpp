@@ -168,7 +168,7 @@ struct SyntheticWindow {
   }
 };
 
-void BM_WindowSolve(benchmark::State& state, ceres::LinearSolverType solver) {
+void BM_SyntheticWindowSolve(benchmark::State& state, ceres::LinearSolverType solver) {
   SyntheticWindow window;
   ceres::HuberLoss huber(1.0);
   ceres::EigenQuaternionManifold quat_manifold;
@@ -204,11 +204,11 @@ void BM_WindowSolve(benchmark::State& state, ceres::LinearSolverType solver) {
   state.counters["final_cost"] = summary.final_cost;
   state.counters["initial_cost"] = summary.initial_cost;
 }
-BENCHMARK_CAPTURE(BM_WindowSolve, dense_schur, ceres::DENSE_SCHUR)
-    ->Name("BM_WindowSolve/10kf/dense_schur")
+BENCHMARK_CAPTURE(BM_SyntheticWindowSolve, dense_schur, ceres::DENSE_SCHUR)
+    ->Name("BM_SyntheticWindowSolve/10kf/dense_schur")
     ->Unit(benchmark::kMillisecond);
-BENCHMARK_CAPTURE(BM_WindowSolve, sparse_schur, ceres::SPARSE_SCHUR)
-    ->Name("BM_WindowSolve/10kf/sparse_schur")
+BENCHMARK_CAPTURE(BM_SyntheticWindowSolve, sparse_schur, ceres::SPARSE_SCHUR)
+    ->Name("BM_SyntheticWindowSolve/10kf/sparse_schur")
     ->Unit(benchmark::kMillisecond);
 
 }  // namespace
