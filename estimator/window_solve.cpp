@@ -6,6 +6,7 @@
 #include <array>
 #include <cmath>
 #include <limits>
+#include <unordered_set>
 
 #include "factors/bearing_factor.hpp"
 #include "factors/parameterization.hpp"
@@ -37,27 +38,23 @@ SolveSummary solveFactors(std::vector<FactorSpec> factors, const std::vector<Key
   for (std::size_t i = 0; i < scalars.size(); ++i)
     if (scalars[i].block) scalar_backup[i] = scalars[i].block[0];
 
+  // The blocks the factors use: a keyframe's orientation gets its manifold only when a factor
+  // holds it (one without any, e.g. no landmark yet, is left out rather than left floating; asking
+  // Ceres afterwards scans every residual block per keyframe).
+  std::unordered_set<const double*> used;
+  for (const FactorSpec& f : factors) used.insert(f.blocks.begin(), f.blocks.end());
   ceres::Problem problem;
   for (Keyframe* kf : keyframes) {
-    problem.AddParameterBlock(kf->q_W_B, 4, factors::newQuaternionManifold());
-    if (tiedRotations(model))
+    if (used.count(kf->q_W_B)) problem.AddParameterBlock(kf->q_W_B, 4, factors::newQuaternionManifold());
+    if (tiedRotations(model) && used.count(kf->q_W_G))
       problem.AddParameterBlock(kf->q_W_G, 4, factors::newQuaternionManifold());
   }
   for (FactorSpec& f : factors) {
     problem.AddResidualBlock(f.cost.release(), f.loss.release(), f.blocks);
     ++summary.residual_blocks;
   }
-  // Keyframes without any factor (e.g. no landmark yet) must not be left floating.
-  for (Keyframe* kf : keyframes) {
-    std::vector<ceres::ResidualBlockId> ids;
-    problem.GetResidualBlocksForParameterBlock(kf->q_W_B, &ids);
-    if (ids.empty()) problem.RemoveParameterBlock(kf->q_W_B);
-    if (!problem.HasParameterBlock(kf->q_W_G)) continue;
-    problem.GetResidualBlocksForParameterBlock(kf->q_W_G, &ids);
-    if (ids.empty()) problem.RemoveParameterBlock(kf->q_W_G);
-  }
   for (auto& [id, lm] : landmarks) {
-    if (!problem.HasParameterBlock(lm.rho)) continue;
+    if (!used.count(lm.rho)) continue;
     problem.SetParameterLowerBound(lm.rho, 0, model.min_rho);
     problem.SetParameterUpperBound(lm.rho, 0, model.max_rho);
     lm.rho[0] = std::clamp(lm.rho[0], model.min_rho, model.max_rho);
@@ -79,6 +76,8 @@ SolveSummary solveFactors(std::vector<FactorSpec> factors, const std::vector<Key
   so.max_num_iterations = options.max_iterations;
   if (options.max_time_s > 0.0) so.max_solver_time_in_seconds = options.max_time_s;
   so.num_threads = options.num_threads;
+  // No explicit ordering: Ceres' own keeps the program's order (a ParameterBlockOrdering orders
+  // each group by address, which differs between runs and changes the answers in the last bits).
   so.logging_type = ceres::SILENT;
   so.minimizer_progress_to_stdout = false;
   ceres::Solver::Summary s;
