@@ -20,6 +20,7 @@
 #include "apps/online_replay.hpp"
 #include "apps/progress.hpp"
 #include "apps/report.hpp"
+#include "apps/run_budget.hpp"
 #include "apps/run_metrics.hpp"
 #include "apps/run_summary.hpp"
 #include "apps/viewer.hpp"
@@ -47,6 +48,7 @@ struct RunArgs {
   bool realtime = false;
   bool serial = false;
   int threads = 0;      // at most this many threads (0: every core)
+  std::string budget = "full";  // compute preset (apps/run_budget.hpp)
   bool strict = false;  // a bad record in a stream is an error (else skipped and counted)
   double rate = 1.0;
   int queue_depth = 2;
@@ -90,6 +92,7 @@ int runRun(const RunArgs& args) {
   Config config;
   if (!args.config.empty()) config = Config::load(args.config);
   config.applyOverrides(args.sets);
+  applyBudget(config, args.budget);
   if (args.realtime) applyOnlineSolveBudget(config, args.estimator);
   if (!args.refine.empty()) {
     if (args.estimator != "window")
@@ -315,6 +318,12 @@ CommandRunner setupRun(CLI::App& sub) {
                  "the offline stages in sequence, as --serial: a small robot computer's one "
                  "core. 0: every core")
       ->check(CLI::Range(0, 1024))
+      ->capture_default_str();
+  sub.add_option("--budget", args->budget,
+                 "Compute preset: full (the configuration as given) or low (a small robot "
+                 "computer: half-resolution frontend, 2 solver iterations; the README gives its "
+                 "cost in accuracy); keys set by --config or --set win")
+      ->check(CLI::IsMember(budgetNames()))
       ->capture_default_str();
   sub.add_option("--rate", args->rate, "Replay speed factor for --realtime (2 = twice as fast)")
       ->check(CLI::Range(kMinReplayRate, kMaxReplayRate))
