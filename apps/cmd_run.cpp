@@ -92,7 +92,7 @@ int runRun(const RunArgs& args) {
   Config config;
   if (!args.config.empty()) config = Config::load(args.config);
   config.applyOverrides(args.sets);
-  applyBudget(config, args.budget);
+  applyBudget(config, args.budget, args.estimator);
   if (args.realtime) applyOnlineSolveBudget(config, args.estimator);
   if (!args.refine.empty()) {
     if (args.estimator != "window")

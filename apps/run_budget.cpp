@@ -38,9 +38,12 @@ const std::vector<std::pair<std::string, std::string>>& budgetKeys(const std::st
   return it->second;
 }
 
-void applyBudget(Config& config, const std::string& name) {
-  for (const auto& [key, value] : budgetKeys(name))
-    if (!config.has(key)) config.applyOverride(key + "=" + value);
+void applyBudget(Config& config, const std::string& name, const std::string& estimator) {
+  for (const auto& [key, value] : budgetKeys(name)) {
+    const std::string section = key.substr(0, key.find('.'));
+    const bool read = section == "frontend" || section == "ransac" || section == estimator;
+    if (read && !config.has(key)) config.applyOverride(key + "=" + value);
+  }
 }
 
 }  // namespace ovo::app

@@ -19,7 +19,9 @@ const std::vector<std::string>& budgetNames();
 /// preset and the known ones for another name.
 const std::vector<std::pair<std::string, std::string>>& budgetKeys(const std::string& name);
 
-/// Sets the preset's keys that `config` does not hold yet.
-void applyBudget(Config& config, const std::string& name);
+/// Sets the preset's keys that `config` does not hold yet and that `estimator` ("window", "kf",
+/// "vo") reads: the frontend's ("frontend.", "ransac.") for every estimator, an estimator's own
+/// ("window.", ...) only for it.
+void applyBudget(Config& config, const std::string& name, const std::string& estimator);
 
 }  // namespace ovo::app

@@ -21,6 +21,7 @@
 #include <vector>
 
 #include "apps/offline_runner.hpp"
+#include "apps/run_metrics.hpp"
 #include "common/config.hpp"
 #include "estimator/estimator.hpp"
 #include "io/dataset.hpp"
@@ -37,6 +38,16 @@ struct RecordedRun {
 double envSeconds() {
   const char* s = std::getenv("OVO_BENCH_SECONDS");
   return s ? std::atof(s) : 20.0;
+}
+
+Config benchConfig() {
+  Config cfg;
+  if (const char* set = std::getenv("OVO_BENCH_SET")) {
+    std::stringstream list(set);
+    for (std::string item; std::getline(list, item, ';');)
+      if (!item.empty()) cfg.applyOverride(item);
+  }
+  return cfg;
 }
 
 // The dataset cut to its first OVO_BENCH_SECONDS, or the reason there is none.
@@ -63,34 +74,28 @@ const std::optional<RecordedRun>& recordedRun(std::string* why) {
     std::erase_if(data.images, [&](const io::ImageEntry& e) { return e.t_ns > end; });
     estimator::SensorSetup setup = app::sensorSetupFrom(data);  // as ovo run makes it
     estimator::applyNoiseFloors(setup);
-    app::cameraHeightFromScans(data, &setup);
+    if (estimator::estimatorUsesLidar("window", benchConfig()))  // as ovo run decides it
+      app::cameraHeightFromScans(data, &setup);
     return RecordedRun{std::move(data), std::move(setup)};
   }();
   *why = reason;
   return run;
 }
 
-Config benchConfig() {
-  Config cfg;
-  if (const char* set = std::getenv("OVO_BENCH_SET")) {
-    std::stringstream list(set);
-    for (std::string item; std::getline(list, item, ';');)
-      if (!item.empty()) cfg.applyOverride(item);
-  }
-  return cfg;
-}
-
-double percentile(std::vector<double> v, double q) {
-  if (v.empty()) return 0.0;
-  std::sort(v.begin(), v.end());
-  return v[static_cast<std::size_t>(q * static_cast<double>(v.size() - 1) + 0.5)];
-}
 
 void BM_WindowSolve(benchmark::State& state) {
   std::string why;
   const auto& run = recordedRun(&why);
   if (!run) {
     state.SkipWithError(why.c_str());
+    return;
+  }
+  try {  // a key mistyped in OVO_BENCH_SET is an error, as in ovo run
+    Config config = benchConfig();
+    estimator::makeEstimator("window", run->setup, config);
+    config.checkAllUsed();
+  } catch (const std::exception& e) {
+    state.SkipWithError(e.what());
     return;
   }
   std::vector<double> keyframe_ms, other_ms;
@@ -107,10 +112,11 @@ void BM_WindowSolve(benchmark::State& state) {
     state.SetIterationTime(keyframes_s);
   }
   state.counters["keyframes"] = static_cast<double>(keyframe_ms.size()) / state.iterations();
-  state.counters["keyframe_ms_median"] = percentile(keyframe_ms, 0.5);
-  state.counters["keyframe_ms_p90"] = percentile(keyframe_ms, 0.9);
-  state.counters["keyframe_ms_max"] = percentile(keyframe_ms, 1.0);
-  state.counters["frame_ms_median"] = percentile(other_ms, 0.5);
+  // As metrics.json computes them.
+  state.counters["keyframe_ms_median"] = app::percentile(keyframe_ms, 50);
+  state.counters["keyframe_ms_p90"] = app::percentile(keyframe_ms, 90);
+  state.counters["keyframe_ms_max"] = app::percentile(keyframe_ms, 100);
+  state.counters["frame_ms_median"] = app::percentile(other_ms, 50);
 }
 
 }  // namespace

@@ -422,26 +422,37 @@ void WindowCore::associateLidar() {
 bool WindowCore::rescaleToLidar() {
   if (!use_lidar_ || options_.lidar_rescale_ratio <= 0.0 || map_.keyframes.size() < 2) return false;
   const auto ratio = lidar_.scaleRatio(map_);
-  if (!ratio || !(*ratio > 0.0) || std::abs(*ratio - 1.0) <= options_.lidar_rescale_ratio)
+  if (!ratio || !(*ratio > 0.0)) return false;
+  if (std::abs(*ratio - 1.0) <= options_.lidar_rescale_ratio) {
+    scale_known_ = true;  // the LiDAR agrees with the window's scale
     return false;
-  rescaleWindow(1.0 / *ratio, map_, gauge_, frames_, {last_T_W_B_, velocity_W_});
-  scale_known_ = true;
+  }
+  rescaleBy(1.0 / *ratio);
   note("the LiDAR's ranges agreed on another scale than the window's: window rescaled to them");
   return true;
 }
 
 bool WindowCore::rescaleToGround() {
-  // At least this many keyframes' planes, more than half within this fraction of their median.
+  // At least this many keyframes' planes, more than half within this fraction of their median;
+  // and a rescale within these bounds (a plane at a near-zero height is no scale).
   constexpr int kMinKeyframes = 2;
   constexpr double kAgreement = 0.1;
-  if (scale_known_ || !(model_.camera_height_m > 0.0)) return false;
+  constexpr double kMinFactor = 0.01, kMaxFactor = 100.0;
+  const double h = heightCorrectedModel().camera_height_m;
+  if (scale_known_ || lidar_scale_ || last_solve_.lidar_factors > 0 || !(h > 0.0)) return false;
   const auto height =
       windowGroundHeight(map_.landmarks, model_, label_ground_options_, kMinKeyframes, kAgreement);
-  if (!height) return false;
-  rescaleWindow(model_.camera_height_m / *height, map_, gauge_, frames_, {last_T_W_B_, velocity_W_});
-  scale_known_ = true;
+  if (!height || !(h / *height >= kMinFactor && h / *height <= kMaxFactor)) return false;
+  rescaleBy(h / *height);
   note("the window started without a scale: rescaled to the ground plane's camera height");
   return true;
+}
+
+void WindowCore::rescaleBy(double s) {
+  rescaleWindow(s, map_, gauge_, frames_, {last_T_W_B_, velocity_W_});
+  scale_known_ = true;
+  // A restart from the last still frame would start at its pose of the old scale.
+  still_reference_.reset();
 }
 
 void WindowCore::solveWindow() {

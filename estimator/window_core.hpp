@@ -143,11 +143,15 @@ class WindowCore {
   /// When the window's LiDAR ranges agree on a scale lidar_rescale_ratio off the window's, scales
   /// the window to them (window_rescale.hpp).
   bool rescaleToLidar();
-  /// A segment started without a scale (unit baseline) takes the ground plane's once the window's
-  /// keyframes agree on the camera's height in its units (windowGroundHeight): the window is
-  /// rescaled to the rig's camera height. Without it, the ground and LiDAR gates, made for a
-  /// window at its true scale, reject every measurement that would correct it, for good.
+  /// A segment started without a scale (unit baseline) and without LiDAR factors takes the ground
+  /// plane's once the window's keyframes agree on the camera's height in its units
+  /// (windowGroundHeight): the window is rescaled to the rig's camera height. Without it, the
+  /// ground and camera-height gates, made for a window at its true scale, reject every plane
+  /// that would correct it.
   bool rescaleToGround();
+  /// Scales the window by s (rescaleWindow), marks its scale known and drops the still reference
+  /// (its pose is of the old scale).
+  void rescaleBy(double s);
   void solveWindow();
   /// Forgets the gyro samples no later preintegration needs (memory stays flat over hours).
   void trimGyro();
@@ -219,9 +223,9 @@ class WindowCore {
   GyroBuffer gyro_;
   GyroSpikeFilter gyro_spikes_;
   static constexpr double kSettleAfterS = 5.0;  // frames are settled this long after at least, s
-  static constexpr double kGyroKeepS = 30.0;  // gyro history kept at most (a long stop), s
-  static constexpr double kReshiftS = 0.001;  // a keyframe's gyro interval is integrated again
-                                              // when the time offset moved this far from it, s
+  static constexpr double kGyroKeepS = 30.0;    // gyro history kept at most (a long stop), s
+  static constexpr double kReshiftS = 0.001;    // a keyframe's gyro interval is integrated again
+                                                // when the time offset moved this far from it, s
   ScanTimeline scans_;
   WindowLidar lidar_;
   WindowInitializer initializer_;

@@ -5,6 +5,7 @@
 #include <map>
 #include <memory>
 
+#include "common/stats.hpp"
 #include "estimator/estimator.hpp"
 #include "factors/bias_prior_factor.hpp"
 #include "factors/pose_prior_factor.hpp"
@@ -90,13 +91,12 @@ std::optional<double> windowGroundHeight(const std::unordered_map<TrackId, Landm
                                          int min_keyframes, double agreement) {
   const Vec3 up_prior_C = bodyUpIn(model.T_B_C);
   std::vector<double> heights;
-  for (const auto& [kf_id, lms] : landmarksByAnchor<const std::unordered_map<TrackId, Landmark>,
-                                                    const Landmark*>(landmarks))
+  for (const auto& [kf_id, lms] :
+       landmarksByAnchor<const std::unordered_map<TrackId, Landmark>, const Landmark*>(landmarks))
     if (const auto plane = fitGroundPlane(anchorPoints(lms), up_prior_C, ground_options))
       if (plane->height > 0.0) heights.push_back(plane->height);
   if (static_cast<int>(heights.size()) < std::max(1, min_keyframes)) return std::nullopt;
-  std::nth_element(heights.begin(), heights.begin() + heights.size() / 2, heights.end());
-  const double median = heights[heights.size() / 2];
+  const double median = upperMedian(heights);
   const auto agreeing = std::count_if(heights.begin(), heights.end(), [&](double x) {
     return std::abs(x - median) <= agreement * median;
   });

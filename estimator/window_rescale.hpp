@@ -1,6 +1,7 @@
-// Rescaling the window to the LiDAR: when the LiDAR's ranges agree on another scale than the
-// window's (e.g. after a headland turn with nothing in LiDAR range, where the gates then reject
-// every range that would correct it), every state that carries a length is scaled about the oldest
+// Rescaling the window: when the LiDAR's ranges agree on another scale than the window's (e.g.
+// after a headland turn with nothing in LiDAR range, where the gates then reject every range that
+// would correct it), or when a window started without a scale gets one from its ground planes
+// (WindowCore::rescaleToGround), every state that carries a length is scaled about the oldest
 // keyframe, so that the trajectory before the window stays where it is.
 #pragma once
 

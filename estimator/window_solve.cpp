@@ -45,7 +45,8 @@ SolveSummary solveFactors(std::vector<FactorSpec> factors, const std::vector<Key
   for (const FactorSpec& f : factors) used.insert(f.blocks.begin(), f.blocks.end());
   ceres::Problem problem;
   for (Keyframe* kf : keyframes) {
-    if (used.count(kf->q_W_B)) problem.AddParameterBlock(kf->q_W_B, 4, factors::newQuaternionManifold());
+    if (used.count(kf->q_W_B))
+      problem.AddParameterBlock(kf->q_W_B, 4, factors::newQuaternionManifold());
     if (tiedRotations(model) && used.count(kf->q_W_G))
       problem.AddParameterBlock(kf->q_W_G, 4, factors::newQuaternionManifold());
   }
