@@ -16,6 +16,12 @@ constexpr double kHalfPi = 0.5 * std::numbers::pi;
 // field of view ends there at the latest.
 constexpr double kToolboxThetaMax = 1.2;
 constexpr double kRadiusStepPx = 0.05;
+// Radial sampling bounds: the inverse polynomial's fit every 0.25 px and its round trip every
+// kRadiusStepPx up to a 2000 px and a 5000 px radius; a larger radius (only a broken affine
+// gives one: c = 0.002 in a fuzzed calib_results.txt, a 300000 px radius and minutes of
+// fitting) is sampled more coarsely.
+constexpr int kMaxFitSamples = 8000;
+constexpr double kMaxRoundTripSteps = 100000.0;
 
 double polyval(const std::vector<double>& coeffs, double x) {
   double y = 0.0;
@@ -123,7 +129,8 @@ OcamRoundTrip radialRoundTrip(const std::vector<double>& ss, const Chebyshev& rh
   OcamRoundTrip stats;
   double sum = 0.0;
   int n = 0;
-  for (double rho = 0.0; rho <= rho_max; rho += kRadiusStepPx, ++n) {
+  const double step = std::max(kRadiusStepPx, rho_max / kMaxRoundTripSteps);
+  for (double rho = 0.0; rho <= rho_max; rho += step, ++n) {
     const double phi = thetaOfRadius(ss, rho) + kHalfPi;
     const double err = affine_gain * std::abs(rho_of_phi.rho(phi) - rho);
     stats.max_px = std::max(stats.max_px, err);
@@ -137,7 +144,8 @@ OcamRoundTrip radialRoundTrip(const std::vector<double>& ss, const Chebyshev& rh
 // rho(0) = 0, so the optical axis maps to the centre.
 Chebyshev fitRadiusOfAngle(const std::vector<double>& ss, double rho_max_px, double phi_scale,
                            int degree) {
-  const int samples = std::max(400, static_cast<int>(rho_max_px / 0.25));
+  const int samples =
+      static_cast<int>(std::clamp(rho_max_px / 0.25, 400.0, double{kMaxFitSamples}));
   Eigen::MatrixXd A(samples + 1, degree);
   Eigen::VectorXd b(samples + 1);
   for (int i = 0; i <= samples; ++i) {
