@@ -440,10 +440,11 @@ bool WindowCore::rescaleToGround() {
   constexpr double kMinFactor = 0.01, kMaxFactor = 100.0;
   const double h = heightCorrectedModel().camera_height_m;
   if (scale_known_ || lidar_scale_ || last_solve_.lidar_factors > 0 || !(h > 0.0)) return false;
-  const auto height =
-      windowGroundHeight(map_.landmarks, model_, label_ground_options_, kMinKeyframes, kAgreement);
-  if (!height || !(h / *height >= kMinFactor && h / *height <= kMaxFactor)) return false;
-  rescaleBy(h / *height);
+  const auto height = agreedGroundHeight(ground_heights_, kMinKeyframes, kAgreement);
+  if (!height) return false;
+  const double factor = h / *height;
+  if (!(factor >= kMinFactor && factor <= kMaxFactor)) return false;
+  rescaleBy(factor);
   note("the window started without a scale: rescaled to the ground plane's camera height");
   return true;
 }
@@ -486,7 +487,8 @@ void WindowCore::solveWindow() {
 }
 
 void WindowCore::labelGround() {
-  labelGroundLandmarks(map_.landmarks, heightCorrectedModel(), options_, label_ground_options_);
+  ground_heights_ =
+      labelGroundLandmarks(map_.landmarks, heightCorrectedModel(), options_, label_ground_options_);
 }
 
 WindowModel WindowCore::heightCorrectedModel() const {

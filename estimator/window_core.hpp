@@ -145,9 +145,9 @@ class WindowCore {
   bool rescaleToLidar();
   /// A segment started without a scale (unit baseline) and without LiDAR factors takes the ground
   /// plane's once the window's keyframes agree on the camera's height in its units
-  /// (windowGroundHeight): the window is rescaled to the rig's camera height. Without it, the
-  /// ground and camera-height gates, made for a window at its true scale, reject every plane
-  /// that would correct it.
+  /// (agreedGroundHeight over the last labelGround's planes): the window is rescaled to the rig's
+  /// camera height. Without it, the ground and camera-height gates, made for a window at its true
+  /// scale, reject every plane that would correct it.
   bool rescaleToGround();
   /// Scales the window by s (rescaleWindow), marks its scale known and drops the still reference
   /// (its pose is of the old scale).
@@ -241,6 +241,7 @@ class WindowCore {
   std::optional<std::pair<Timestamp, Vec3>> carried_bias_;
   bool lidar_scale_ = false;  // the current segment's scale came from the LiDAR
   bool scale_known_ = true;   // false: the segment started at a unit baseline (rescaleToGround)
+  std::vector<double> ground_heights_;  // the last labelGround's plane heights (rescaleToGround)
 
   // Last frame.
   bool have_last_ = false;

@@ -64,37 +64,8 @@ std::optional<double> initialRho(const std::vector<const Keyframe*>& seen,
 
 }  // namespace
 
-namespace {
-
-/// The landmarks (not at infinity) by anchor keyframe, in the order of the keyframe ids.
-template <class LandmarkMap, class LandmarkPtr>
-std::map<int, std::vector<LandmarkPtr>> landmarksByAnchor(LandmarkMap& landmarks) {
-  std::map<int, std::vector<LandmarkPtr>> by_anchor;
-  for (auto& [id, lm] : landmarks)
-    if (lm.rho[0] > 1e-6) by_anchor[lm.anchor_kf].push_back(&lm);
-  return by_anchor;
-}
-
-template <class LandmarkPtr>
-std::vector<Vec3> anchorPoints(const std::vector<LandmarkPtr>& lms) {
-  std::vector<Vec3> points_C;
-  points_C.reserve(lms.size());
-  for (const auto* lm : lms) points_C.push_back(lm->bearing_anchor_C / lm->rho[0]);
-  return points_C;
-}
-
-}  // namespace
-
-std::optional<double> windowGroundHeight(const std::unordered_map<TrackId, Landmark>& landmarks,
-                                         const WindowModel& model,
-                                         const GroundPlaneOptions& ground_options,
-                                         int min_keyframes, double agreement) {
-  const Vec3 up_prior_C = bodyUpIn(model.T_B_C);
-  std::vector<double> heights;
-  for (const auto& [kf_id, lms] :
-       landmarksByAnchor<const std::unordered_map<TrackId, Landmark>, const Landmark*>(landmarks))
-    if (const auto plane = fitGroundPlane(anchorPoints(lms), up_prior_C, ground_options))
-      if (plane->height > 0.0) heights.push_back(plane->height);
+std::optional<double> agreedGroundHeight(std::vector<double> heights, int min_keyframes,
+                                         double agreement) {
   if (static_cast<int>(heights.size()) < std::max(1, min_keyframes)) return std::nullopt;
   const double median = upperMedian(heights);
   const auto agreeing = std::count_if(heights.begin(), heights.end(), [&](double x) {
@@ -104,17 +75,23 @@ std::optional<double> windowGroundHeight(const std::unordered_map<TrackId, Landm
   return median;
 }
 
-void labelGroundLandmarks(std::unordered_map<TrackId, Landmark>& landmarks,
-                          const WindowModel& model, const WindowOptions& options,
-                          const GroundPlaneOptions& ground_options) {
-  if (!(model.camera_height_m > 0.0)) return;
+std::vector<double> labelGroundLandmarks(std::unordered_map<TrackId, Landmark>& landmarks,
+                                         const WindowModel& model, const WindowOptions& options,
+                                         const GroundPlaneOptions& ground_options) {
+  std::vector<double> heights;
+  if (!(model.camera_height_m > 0.0)) return heights;
   const double h = model.camera_height_m;
   const Vec3 up_prior_C = bodyUpIn(model.T_B_C);
   const double min_down = std::sin(options.ground_min_depression_deg * kDegToRad);
-  for (auto& [kf_id, lms] :
-       landmarksByAnchor<std::unordered_map<TrackId, Landmark>, Landmark*>(landmarks)) {
-    const std::vector<Vec3> points_C = anchorPoints(lms);
+  std::map<int, std::vector<Landmark*>> by_anchor;  // (in the order of the keyframe ids)
+  for (auto& [id, lm] : landmarks)
+    if (lm.rho[0] > 1e-6)  // (not the points at infinity)
+      by_anchor[lm.anchor_kf].push_back(&lm);
+  for (auto& [kf_id, lms] : by_anchor) {
+    std::vector<Vec3> points_C;
+    for (const Landmark* lm : lms) points_C.push_back(lm->bearing_anchor_C / lm->rho[0]);
     const auto plane = fitGroundPlane(points_C, up_prior_C, ground_options);
+    if (plane && plane->height > 0.0) heights.push_back(plane->height);
     const bool plane_ok = plane && std::abs(plane->height - h) <= options.ground_scale_gate * h;
     for (std::size_t k = 0; k < lms.size(); ++k) {
       Landmark& lm = *lms[k];
@@ -136,6 +113,7 @@ void labelGroundLandmarks(std::unordered_map<TrackId, Landmark>& landmarks,
       lm.ground_up_C = plane->up_C;
     }
   }
+  return heights;
 }
 
 RefineInfo refineKeyframes(const std::vector<Keyframe*>& keyframes,

@@ -18,20 +18,18 @@ namespace ovo::estimator {
 
 /// Camera-height labels (DESIGN section 6): per anchor keyframe, the plane fitted to the landmarks
 /// it anchors; its inliers near the camera get the factor when the plane agrees with the camera
-/// height, and a labelled landmark keeps it while it stays within twice the inlier band.
-void labelGroundLandmarks(std::unordered_map<TrackId, Landmark>& landmarks,
-                          const WindowModel& model, const WindowOptions& options,
-                          const GroundPlaneOptions& ground_options);
+/// height, and a labelled landmark keeps it while it stays within twice the inlier band. Returns
+/// the planes' heights over the ground in the landmarks' units, gate or not (agreedGroundHeight).
+std::vector<double> labelGroundLandmarks(std::unordered_map<TrackId, Landmark>& landmarks,
+                                         const WindowModel& model, const WindowOptions& options,
+                                         const GroundPlaneOptions& ground_options);
 
 /// The camera's height over the ground in the window's units, for a window whose scale is not
-/// known (started at a unit baseline): the median of the planes fitted to each anchor keyframe's
-/// landmarks (as labelGroundLandmarks fits them, without its gate on the camera height), when at
-/// least `min_keyframes` give a plane and more than half of those agree with the median within
-/// `agreement` (a fraction); nullopt otherwise.
-std::optional<double> windowGroundHeight(const std::unordered_map<TrackId, Landmark>& landmarks,
-                                         const WindowModel& model,
-                                         const GroundPlaneOptions& ground_options,
-                                         int min_keyframes, double agreement);
+/// known (started at a unit baseline), from the anchor keyframes' plane heights
+/// (labelGroundLandmarks): their upper median, when at least `min_keyframes` give a plane and more
+/// than half of them lie within `agreement` (a fraction) of it; nullopt otherwise.
+std::optional<double> agreedGroundHeight(std::vector<double> heights, int min_keyframes,
+                                         double agreement);
 
 /// Re-optimises `keyframes` (time order, their current poses as the initial values) with every
 /// factor the run gathered. A track's sightings become landmarks spanning at most

@@ -1,5 +1,6 @@
-// windowGroundHeight: the camera's height over the ground in the units of a window started
-// without a scale (WindowCore::rescaleToGround takes the window to the rig's height with it).
+// agreedGroundHeight over labelGroundLandmarks' planes: the camera's height over the ground in the
+// units of a window started without a scale (WindowCore::rescaleToGround takes the window to the
+// rig's height with it).
 #include <gtest/gtest.h>
 
 #include <random>
@@ -37,10 +38,15 @@ void addAnchor(std::unordered_map<TrackId, Landmark>& lms, int kf, double scale,
   }
 }
 
+std::optional<double> windowGroundHeight(std::unordered_map<TrackId, Landmark>& lms) {
+  return agreedGroundHeight(
+      labelGroundLandmarks(lms, levelCameraModel(), WindowOptions{}, GroundPlaneOptions{}), 2, 0.1);
+}
+
 TEST(WindowGroundHeight, TheKeyframesPlanesGiveTheHeightInTheWindowsUnits) {
   std::unordered_map<TrackId, Landmark> lms;
   for (int kf = 0; kf < 3; ++kf) addAnchor(lms, kf, 0.3, 11 + kf);
-  const auto h = windowGroundHeight(lms, levelCameraModel(), GroundPlaneOptions{}, 2, 0.1);
+  const auto h = windowGroundHeight(lms);
   ASSERT_TRUE(h.has_value());
   EXPECT_NEAR(*h, 0.3 * 1.65, 0.01);
 }
@@ -48,20 +54,20 @@ TEST(WindowGroundHeight, TheKeyframesPlanesGiveTheHeightInTheWindowsUnits) {
 TEST(WindowGroundHeight, OneKeyframesPlaneOrDisagreeingPlanesGiveNone) {
   std::unordered_map<TrackId, Landmark> one;
   addAnchor(one, 0, 0.3, 11);
-  EXPECT_FALSE(windowGroundHeight(one, levelCameraModel(), GroundPlaneOptions{}, 2, 0.1));
+  EXPECT_FALSE(windowGroundHeight(one));
   std::unordered_map<TrackId, Landmark> apart;  // three keyframes, three scales
   addAnchor(apart, 0, 0.3, 11);
   addAnchor(apart, 1, 0.6, 12);
   addAnchor(apart, 2, 0.9, 13);
-  EXPECT_FALSE(windowGroundHeight(apart, levelCameraModel(), GroundPlaneOptions{}, 2, 0.1));
+  EXPECT_FALSE(windowGroundHeight(apart));
   // Two of four are not a majority; two of three are.
   addAnchor(apart, 3, 0.62, 14);
-  EXPECT_FALSE(windowGroundHeight(apart, levelCameraModel(), GroundPlaneOptions{}, 2, 0.1));
+  EXPECT_FALSE(windowGroundHeight(apart));
   std::unordered_map<TrackId, Landmark> two_of_three;
   addAnchor(two_of_three, 0, 0.3, 11);
   addAnchor(two_of_three, 1, 0.6, 12);
   addAnchor(two_of_three, 2, 0.62, 14);
-  const auto h = windowGroundHeight(two_of_three, levelCameraModel(), GroundPlaneOptions{}, 2, 0.1);
+  const auto h = windowGroundHeight(two_of_three);
   ASSERT_TRUE(h.has_value());
   EXPECT_NEAR(*h, 0.6 * 1.65, 0.05);
 }
