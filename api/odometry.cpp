@@ -13,6 +13,7 @@
 #include "api/ovo.hpp"
 #include "apps/offline_runner.hpp"
 #include "apps/online_pipeline.hpp"
+#include "apps/run_budget.hpp"
 #include "camera/calib_io.hpp"
 #include "common/config.hpp"
 #include "common/error.hpp"
@@ -154,6 +155,7 @@ Odometry::Odometry(const std::string& rig_file, const OdometryOptions& options,
   Config config;
   if (!options.config_file.empty()) config = Config::load(options.config_file);
   config.applyOverrides(options.settings);
+  app::applyBudget(config, options.budget, options.estimator);
   if (options.realtime) app::applyOnlineSolveBudget(config, options.estimator);
   impl_->est = estimator::makeEstimator(options.estimator, impl_->setup, config);
   impl_->est->keepHistory(options.keep_trajectory);

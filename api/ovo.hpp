@@ -59,6 +59,10 @@ struct OdometryOptions {
   std::string estimator = "window";   // window (sliding window), kf (Kalman filter), vo (camera)
   std::string config_file;            // optional YAML of estimator keys (ovo's configs/)
   std::vector<std::string> settings;  // optional overrides "key.path=value"
+  /// Compute preset, as `ovo run --budget`: "full" (the configuration as given) or "low" (a small
+  /// robot computer: half-resolution frontend, 2 solver iterations; the README's "Speed" gives
+  /// its cost in accuracy). Keys set by config_file or settings win.
+  std::string budget = "full";
   bool use_gyro = true;               // false when the robot has no gyro
   bool use_lidar = true;              // false when it has no LiDAR
   /// false (offline): every measurement is processed in the calling thread, in time order, none

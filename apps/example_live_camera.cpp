@@ -29,6 +29,7 @@
 
 #include "apps/offline_runner.hpp"
 #include "apps/online_pipeline.hpp"
+#include "apps/run_budget.hpp"
 #include "apps/run_metrics.hpp"
 #include "apps/viewer.hpp"
 #include "camera/calib_io.hpp"
@@ -73,7 +74,7 @@ class StopSignals {
 
 struct Args {
   std::string camera = "0";
-  std::string calib, rig, config, estimator = "vo";
+  std::string calib, rig, config, estimator = "vo", budget = "full";
   std::vector<std::string> sets;
   double fps = 0.0, rate = 1.0;
   long long t0_ns = 0;
@@ -211,6 +212,7 @@ int run(const Args& args) {
   Config config;
   if (!args.config.empty()) config = Config::load(args.config);
   config.applyOverrides(args.sets);
+  app::applyBudget(config, args.budget, args.estimator);
   app::applyOnlineSolveBudget(config, args.estimator);
   auto est = estimator::makeEstimator(args.estimator, setup, config);
   est->keepHistory(false);  // the poses go out as they come: memory stays flat for hours
@@ -314,6 +316,11 @@ int main(int argc, char** argv) {
       ->check(CLI::IsMember({"window", "kf", "vo"}));
   app.add_option("--config", args.config, "Estimator configuration (YAML)");
   app.add_option("--set", args.sets, "Override a configuration key: key.path=value");
+  app.add_option("--budget", args.budget,
+                 "Compute preset, as ovo run's: full or low (half-resolution frontend, 2 solver "
+                 "iterations); keys set by --config or --set win")
+      ->check(CLI::IsMember(ovo::app::budgetNames()))
+      ->capture_default_str();
   // Bounded: a rate or fps of 1e-6 slept for days between frames (past Ctrl-C), inf or 1e300
   // gave every frame one stamp, and a t0 near 2^63 overflowed.
   app.add_option("--fps", args.fps, "Frame rate of a video file (default: from the file)")

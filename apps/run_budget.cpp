@@ -33,7 +33,7 @@ const std::vector<std::pair<std::string, std::string>>& budgetKeys(const std::st
   if (it == presets().end()) {
     std::string known;
     for (const auto& n : budgetNames()) known += (known.empty() ? "" : ", ") + n;
-    fail("--budget {}: unknown preset (known: {})", name, known);
+    fail("budget '{}': unknown compute preset (known: {})", name, known);
   }
   return it->second;
 }

@@ -24,6 +24,7 @@
 
 #include "apps/offline_runner.hpp"
 #include "apps/online_pipeline.hpp"
+#include "apps/run_budget.hpp"
 #include "apps/run_metrics.hpp"
 #include "apps/svg_plot.hpp"
 #include "common/error.hpp"
@@ -39,6 +40,7 @@ struct SoakArgs {
   std::string out = "soak";
   std::string estimator = "window";
   std::string mode = "pingpong";
+  std::string budget = "full";  // compute preset (apps/run_budget.hpp)
   double hours = 1.0;      // of driving (sensor time)
   double rate = 0.0;       // replay speed; 0: as fast as frames are taken without dropping
   double sample_s = 60.0;  // driving seconds per CSV row
@@ -115,6 +117,7 @@ int runSoak(const SoakArgs& args) {
   if (!(args.hours > 0)) fail("--hours: expected > 0, got {}", args.hours);
   Config config;
   config.applyOverrides(args.sets);
+  applyBudget(config, args.budget, args.estimator);
   io::Dataset data = io::loadDataset(args.dataset);
   if (data.images.size() < 2) fail("{}: the soak needs a sequence of images", args.dataset);
   if (auto note = imagesOntoGyroClock(data)) spdlog::info("{}", *note);
@@ -306,6 +309,9 @@ int main(int argc, char** argv) {
                "The estimator keeps every frame's pose, as ovo run does (memory grows with the run)");
   app.add_option("--out", args.out, "Folder for soak.csv and soak.svg")->capture_default_str();
   app.add_option("--set", args.sets, "Override a configuration key: key.path=value");
+  app.add_option("--budget", args.budget, "Compute preset, as ovo run's: full or low")
+      ->check(CLI::IsMember(ovo::app::budgetNames()))
+      ->capture_default_str();
   CLI11_PARSE(app, argc, argv);
   spdlog::set_pattern("[%^%l%$] %v");
   try {

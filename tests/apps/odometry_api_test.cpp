@@ -2,7 +2,8 @@
 // trajectory option: a rig whose camera.time_offset_s says the images are stamped 30 ms late gives
 // the estimator the same data as images stamped on the gyro clock (same poses), the callback's
 // stamps are the images' as given and trajectory()'s are on the gyro clock; without the
-// trajectory kept, trajectory() holds only the recent past.
+// trajectory kept, trajectory() holds only the recent past; the "low" budget is ovo run's preset
+// (the same poses as its keys given one by one).
 #include <gtest/gtest.h>
 
 #include <filesystem>
@@ -26,8 +27,7 @@ struct ApiRun {
 /// Feeds the dataset through the API in time order (offline mode), the images stamped
 /// `image_delay_ns` late, with the rig at rig_file.
 ApiRun runApi(const io::Dataset& data, const fs::path& rig_file, Timestamp image_delay_ns,
-              bool keep_trajectory = true) {
-  OdometryOptions options;
+              bool keep_trajectory = true, OdometryOptions options = {}) {
   options.keep_trajectory = keep_trajectory;
   ApiRun run;
   Odometry odo(rig_file.string(), options, [&](const Pose& p) { run.streamed.push_back(p); });
@@ -116,6 +116,36 @@ TEST(OdometryApi, WithoutTheTrajectoryOnlyTheRecentPastIsKept) {
     EXPECT_EQ(streamed.trajectory[i].t_ns, kept.trajectory[skip + i].t_ns);
     EXPECT_EQ(streamed.trajectory[i].position_m, kept.trajectory[skip + i].position_m);
   }
+}
+
+TEST(OdometryApi, TheLowBudgetIsOvoRunsPresetAndAnUnknownOneIsRefused) {
+  const fs::path dataset = test::simulatedRow(6);
+  const io::Dataset data = io::loadDataset(dataset);
+  const fs::path tmp = fs::temp_directory_path() / ("ovo_api_budget_" + std::to_string(::getpid()));
+  const fs::path rig = rigWithOffset(dataset, tmp, 0.0);
+  OdometryOptions low, by_keys;
+  low.budget = "low";
+  by_keys.settings = {"frontend.half_resolution=true", "window.max_iterations=2"};
+  const ApiRun full = runApi(data, rig, 0);
+  const ApiRun cheap = runApi(data, rig, 0, true, low);
+  const ApiRun keyed = runApi(data, rig, 0, true, by_keys);
+  OdometryOptions unknown;
+  unknown.budget = "tiny";
+  try {
+    Odometry odo(rig.string(), unknown, [](const Pose&) {});
+    ADD_FAILURE() << "an unknown budget was taken";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("'tiny'"), std::string::npos) << e.what();
+  }
+  fs::remove_all(tmp);
+  ASSERT_EQ(cheap.streamed.size(), data.images.size());
+  ASSERT_EQ(keyed.streamed.size(), cheap.streamed.size());
+  bool differs_from_full = false;
+  for (std::size_t i = 0; i < cheap.streamed.size(); ++i) {
+    EXPECT_EQ(cheap.streamed[i].position_m, keyed.streamed[i].position_m) << "frame " << i;
+    differs_from_full |= cheap.streamed[i].position_m != full.streamed[i].position_m;
+  }
+  EXPECT_TRUE(differs_from_full);  // the preset changed the run
 }
 
 }  // namespace
