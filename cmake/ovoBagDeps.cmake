@@ -22,8 +22,12 @@ if(NOT TARGET ovo::lz4)
   target_link_libraries(ovo::lz4 INTERFACE ${OVO_LZ4_LIBRARY})
 endif()
 
-# ROS 1 (Debian's catkin-built packages): rosbag/bag.h includes pluginlib, class_loader, rcutils,
-# rcpputils and ament_index_cpp headers, each under its own folder of /usr/include.
+# ROS 1 (Debian's catkin-built packages), unless ovo is built without (OVO_WITH_ROS1=OFF):
+# rosbag/bag.h includes pluginlib, class_loader, rcutils, rcpputils and ament_index_cpp headers,
+# each under its own folder of /usr/include.
+if(DEFINED OVO_WITH_ROS1 AND NOT OVO_WITH_ROS1)
+  return()
+endif()
 find_path(OVO_ROSBAG_INCLUDE_DIR rosbag/bag.h REQUIRED)
 find_path(OVO_SENSOR_MSGS_INCLUDE_DIR sensor_msgs/LaserScan.h REQUIRED)
 set(_ovo_ros1_includes ${OVO_ROSBAG_INCLUDE_DIR} ${OVO_SENSOR_MSGS_INCLUDE_DIR})

@@ -18,6 +18,8 @@ namespace ovo::io::bag {
 
 namespace fs = std::filesystem;
 
+bool ros1BagsBuilt() { return true; }
+
 std::string ros1Md5Sum(ros::MsgType type) {
   using ::ros::message_traits::MD5Sum;
   switch (type) {

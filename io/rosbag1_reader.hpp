@@ -17,7 +17,12 @@ namespace ovo::io::bag {
 /// (truncated, unindexed, corrupt chunk).
 std::unique_ptr<BagSource> openRos1Bag(const std::filesystem::path& file);
 
-/// The MD5 sum libsensor-msgs-dev gives the type (empty for another type).
+/// The MD5 sum libsensor-msgs-dev gives the type (empty for another type, and in a build
+/// without ROS 1 bags).
 std::string ros1Md5Sum(ros::MsgType type);
+
+/// false in a build without ROS 1 bags (CMake OVO_WITH_ROS1=OFF: io/rosbag1_absent.cpp), where
+/// openRos1Bag and a ROS 1 BagWriter throw ovo::Error saying so.
+bool ros1BagsBuilt();
 
 }  // namespace ovo::io::bag

@@ -56,6 +56,14 @@ Eigen::MatrixXd numericJacobian(const std::function<Eigen::VectorXd(const Eigen:
                    << " (tests on real data need ../shared/data beside the project)";    \
   } while (0)
 
+/// Skips a test of ROS 1 bags in a build without them (CMake OVO_WITH_ROS1=OFF, as for arm64);
+/// the test file includes io/rosbag1_reader.hpp.
+#define OVO_REQUIRE_ROS1()                                                      \
+  do {                                                                          \
+    if (!::ovo::io::bag::ros1BagsBuilt())                                       \
+      GTEST_SKIP() << "this ovo was built without ROS 1 bags (OVO_WITH_ROS1=OFF)"; \
+  } while (0)
+
 /// Compares two Jacobians elementwise with a tolerance relative to the larger magnitude.
 #define OVO_EXPECT_JACOBIAN_NEAR(J_analytic, J_numeric, tol)                         \
   do {                                                                               \

@@ -8,6 +8,7 @@
 
 #include "io/bag_source.hpp"
 #include "io/cdr.hpp"
+#include "io/bag_writer.hpp"
 #include "io/rosbag1_check.hpp"
 #include "io/rosbag1_reader.hpp"
 #include "tests/test_support.hpp"
@@ -39,6 +40,7 @@ std::pair<MessageRef, MessageRef> ends(const BagSource& bag, const std::string& 
 const std::string kDir = "rosbag-fixtures/";
 
 TEST(Rosbag1, TurtlesimReadsTheSameInEveryChunkCompression) {
+  OVO_REQUIRE_ROS1();
   OVO_REQUIRE_DATA(kDir + "ros1_turtlesim/example.bag");
   const std::map<std::string, std::uint64_t> expected = {{"/rosout", 10},
                                                          {"/tf", 2688},
@@ -110,6 +112,7 @@ TEST(Rosbag1, TurtlesimReadsTheSameInEveryChunkCompression) {
 }
 
 TEST(Rosbag1, RobotLocalizationImu) {
+  OVO_REQUIRE_ROS1();
   OVO_REQUIRE_DATA(kDir + "ros1_imu_robot_localization/test2.bag");
   const fs::path file = test::sharedData(kDir + "ros1_imu_robot_localization/test2.bag");
   const Ros1BagLayout layout = checkRos1BagStructure(file);
@@ -157,6 +160,7 @@ TEST(Rosbag1, RobotLocalizationImu) {
 }
 
 TEST(Rosbag1, HokuyoLaserScansKeepTheirBeamTime) {
+  OVO_REQUIRE_ROS1();
   OVO_REQUIRE_DATA(kDir + "ros1_laserscan_hokuyo/demo.bag");
   const fs::path file = test::sharedData(kDir + "ros1_laserscan_hokuyo/demo.bag");
   const Ros1BagLayout layout = checkRos1BagStructure(file);
@@ -221,6 +225,7 @@ TEST(Rosbag1, HokuyoLaserScansKeepTheirBeamTime) {
 }
 
 TEST(Rosbag1, RosNumpyImageAndCompressedImage) {
+  OVO_REQUIRE_ROS1();
   OVO_REQUIRE_DATA(kDir + "ros1_image_ros_numpy/test.bag");
   const auto bag = openRos1Bag(test::sharedData(kDir + "ros1_image_ros_numpy/test.bag"));
   ASSERT_EQ(bag->messages().size(), 9u);
@@ -282,6 +287,7 @@ void readEverything(const fs::path& f) {
 }
 
 TEST(Rosbag1, TruncatedAndCorruptBagsAreErrors) {
+  OVO_REQUIRE_ROS1();
   OVO_REQUIRE_DATA(kDir + "ros1_laserscan_hokuyo/demo.bag");
   const std::vector<std::uint8_t> uncompressed =
       readAll(test::sharedData(kDir + "ros1_laserscan_hokuyo/demo.bag"));
@@ -324,6 +330,18 @@ TEST(Rosbag1, TruncatedAndCorruptBagsAreErrors) {
   // Not a bag at all.
   writeAll(bad, {'#', 'R', 'O', 'S', 'B', 'A', 'G', ' ', 'V', '1', '.', '2', '\n'});
   EXPECT_CONTAINS(errorOf([&] { readEverything(bad); }), "not a ROS 1 bag of format 2.0");
+}
+
+TEST(Rosbag1, ABuildWithoutRos1RefusesBagsSayingSo) {
+  if (ros1BagsBuilt()) GTEST_SKIP() << "this build reads ROS 1 bags (OVO_WITH_ROS1=ON)";
+  const fs::path dir = test::tempDir();
+  test::writeTextFile(dir / "x.bag", "#ROSBAG V2.0\n");
+  const std::string e = test::errorOf([&] { openBag(dir / "x.bag"); });
+  EXPECT_CONTAINS(e, (dir / "x.bag").string());
+  EXPECT_CONTAINS(e, "built without ROS 1 bags");
+  EXPECT_CONTAINS(test::errorOf([&] { BagWriter::create(BagFormat::kRos1, dir / "y.bag"); }),
+                  "built without ROS 1 bags");
+  EXPECT_FALSE(fs::exists(dir / "y.bag"));
 }
 
 }  // namespace
