@@ -11,6 +11,7 @@
 #include "common/so3.hpp"
 #include "estimator/gyro_buffer.hpp"
 #include "estimator/kf_filter.hpp"
+#include "estimator/lidar_deskew.hpp"
 #include "estimator/lidar_scale.hpp"
 #include "estimator/vo_chain.hpp"
 #include "estimator/window_init.hpp"  // medianParallaxDeg
@@ -42,6 +43,7 @@ KfEstimatorOptions readKfEstimatorOptions(const Config& cfg, const SensorSetup& 
   o.still_trim_s = cfg.getInRange("kf.still_trim_s", o.still_trim_s, 0.0, 10.0);
   o.use_gyro = cfg.get<bool>("kf.use_gyro", o.use_gyro);
   o.use_lidar = cfg.get<bool>("kf.use_lidar", o.use_lidar);
+  o.lidar_deskew = cfg.get<bool>("kf.lidar_deskew", o.lidar_deskew);
   o.ground = readGroundPlaneOptions(cfg);
   o.lidar = readLidarScaleOptions(cfg);
   // The filter's gyro noise defaults to the rig's figures unless the config sets them (read from
@@ -145,6 +147,15 @@ class KfEstimator final : public Estimator {
     if (!use_gyro_ || !sample.gyro_radps.allFinite()) return;
     if (!pending_gyro_.empty() && sample.t_ns <= pending_gyro_.back().t_ns) return;
     pending_gyro_.push_back(sample);
+    if (use_lidar_ && options_.lidar_deskew) {  // the rates of the scans' sweeps
+      recent_gyro_.push_back(sample);
+      const Timestamp keep_from = sample.t_ns - fromSeconds(kRecentGyroS);
+      if (recent_gyro_.front().t_ns < keep_from - fromSeconds(kRecentGyroS))  // now and then
+        recent_gyro_.erase(
+            recent_gyro_.begin(),
+            std::lower_bound(recent_gyro_.begin(), recent_gyro_.end(), keep_from,
+                             [](const ImuSample& g, Timestamp t) { return g.t_ns < t; }));
+    }
   }
 
   void addScan(const LidarScan& scan) override {
@@ -369,11 +380,12 @@ class KfEstimator final : public Estimator {
                           const std::vector<std::uint8_t>& valid, const ChainStep& s,
                           FrameEstimate* f) {
     const double max_step = options_.max_speed_mps * std::max(dt, 1e-3);
-    if (const LidarScan* scan = scanAt(t_ns)) {
+    if (const LidarScan* raw = scanAt(t_ns)) {
+      const LidarScan scan = deskewed(*raw);
       std::vector<ScaleFeature> features;
       for (std::size_t i = 0; i < pts.size(); ++i)
         if (valid[i] && i < s.px_all_cur.size()) features.push_back({s.px_all_cur[i], pts[i]});
-      const auto est = estimateLidarScale(*scan, T_C_L_, setup_.camera, features, options_.lidar);
+      const auto est = estimateLidarScale(scan, T_C_L_, setup_.camera, features, options_.lidar);
       if (est && est->scale > 0 && est->scale <= max_step) {
         ++stats_.lidar_scale_frames;
         f->scale_source_lidar = 1.0;
@@ -391,8 +403,9 @@ class KfEstimator final : public Estimator {
 
   // The LiDAR's measurement of c = exp(x) on the uncorrected chain, and the scalar KF update.
   void updateScaleCorrection(Timestamp t_ns, const ChainStep& s) {
-    const LidarScan* scan = scanAt(t_ns);
-    if (!scan) return;
+    const LidarScan* raw = scanAt(t_ns);
+    if (!raw) return;
+    const LidarScan scan = deskewed(*raw);
     const SE3 T_W_Ccur = base_trajectory_.back().T_W_B * setup_.T_B_C;
     std::vector<TrackScaleFeature> features;
     const double max_rotation_rad = options_.lidar_max_rotation_deg * M_PI / 180.0;
@@ -412,7 +425,7 @@ class KfEstimator final : public Estimator {
       }
     }
     const Vec3 up_C = T_W_Ccur.linear().transpose() * Vec3::UnitZ();
-    const auto kappa = estimateLidarScaleCorrection(*scan, T_C_L_, setup_.camera, features, up_C,
+    const auto kappa = estimateLidarScaleCorrection(scan, T_C_L_, setup_.camera, features, up_C,
                                                     height_m_, options_.lidar);
     if (!kappa || !(kappa->scale > 0)) return;
     if (last_scale_update_t_)
@@ -445,6 +458,15 @@ class KfEstimator final : public Estimator {
     }
   }
 
+  // The scan made instantaneous at its stamp (options_.lidar_deskew; scans with per-beam times):
+  // the body turned at the gyro's mean rate over the sweep, less the filter's bias. The kf's own
+  // velocity (the chain's, over the last frames) is left out: it tightened the LiDAR's scale
+  // measurements on a straight row but biased them through a headland pivot (README, issue 42).
+  LidarScan deskewed(const LidarScan& scan) const {
+    if (!options_.lidar_deskew || !use_gyro_) return scan;
+    return deskewScanWithGyro(scan, recent_gyro_, filter_.gyroBias(), Vec3::Zero(), setup_.T_B_L);
+  }
+
   const LidarScan* scanAt(Timestamp t_ns) const {
     for (auto it = scans_.rbegin(); it != scans_.rend(); ++it)
       if (std::abs(toSeconds(it->t_ns - t_ns)) <= options_.scan_time_tolerance_s) return &*it;
@@ -474,6 +496,8 @@ class KfEstimator final : public Estimator {
   };
   std::deque<HeldZeroRate> held_zero_rate_;  // still frames waiting for still_trim_s more
   std::deque<LidarScan> scans_;
+  static constexpr double kRecentGyroS = 1.0;  // gyro kept for the scans' sweeps (1-2 s), s
+  std::vector<ImuSample> recent_gyro_;
   double ground_speed_mps_ = 0.0;  // last ground-plane speed (uncorrected)
   double lidar_speed_mps_ = 0.0;   // last direct LiDAR speed (no camera height)
   double log_c_ = 0.0;             // x = log(LiDAR / ground-plane scale)

@@ -44,6 +44,9 @@ struct KfEstimatorOptions {
                               // them put its 19 mrad/s turn into the bias and kept it there), s
   bool use_gyro = true;
   bool use_lidar = true;
+  bool lidar_deskew = true;  // a swept scan (per-beam times) is made instantaneous at its stamp
+                             // before use: each beam turned back by the gyro's mean rate over
+                             // the sweep (estimator/lidar_deskew.hpp; no translation)
   GroundPlaneOptions ground;
   LidarScaleOptions lidar;
   KfOptions filter;

@@ -5,6 +5,8 @@
 #include <limits>
 #include <vector>
 
+#include "common/so3.hpp"
+
 namespace ovo::estimator {
 
 LidarMotion lidarMotionFromBody(const std::function<Mat3(double tau_s)>& R_B0_B, const Vec3& v_B0,
@@ -73,6 +75,33 @@ LidarScan deskewScan(const LidarScan& scan, const LidarMotion& motion, double ma
     out.ranges_m[k] = r;
   }
   return out;
+}
+
+Vec3 meanSweepRate(const LidarScan& scan, std::span<const ImuSample> gyro, const Vec3& bias_radps) {
+  if (gyro.empty()) return Vec3::Zero();
+  const double beams = static_cast<double>(std::max<std::size_t>(scan.ranges_m.size(), 1) - 1);
+  const double sweep_s = scan.time_increment_s * beams;
+  const Timestamp t0 = scan.t_ns + fromSeconds(std::min(0.0, sweep_s));
+  const Timestamp t1 = scan.t_ns + fromSeconds(std::max(0.0, sweep_s));
+  Vec3 sum = Vec3::Zero();
+  int n = 0;
+  const ImuSample* nearest = &gyro.front();
+  Timestamp nearest_gap = std::numeric_limits<Timestamp>::max();
+  for (const ImuSample& g : gyro) {
+    const Timestamp gap = g.t_ns < t0 ? t0 - g.t_ns : (g.t_ns > t1 ? g.t_ns - t1 : 0);
+    if (gap == 0) sum += g.gyro_radps, ++n;
+    if (gap < nearest_gap) nearest_gap = gap, nearest = &g;
+  }
+  if (n > 0) return sum / n - bias_radps;
+  return nearest->gyro_radps - bias_radps;
+}
+
+LidarScan deskewScanWithGyro(const LidarScan& scan, std::span<const ImuSample> gyro,
+                             const Vec3& bias_radps, const Vec3& v_B, const SE3& T_B_L) {
+  if (scan.time_increment_s == 0.0 || scan.ranges_m.size() < 2) return scan;
+  const Vec3 w_B = meanSweepRate(scan, gyro, bias_radps);
+  return deskewScan(
+      scan, lidarMotionFromBody([w_B](double tau_s) { return so3::exp(w_B * tau_s); }, v_B, T_B_L));
 }
 
 }  // namespace ovo::estimator

@@ -5,6 +5,7 @@
 #pragma once
 
 #include <functional>
+#include <span>
 
 #include "common/types.hpp"
 
@@ -28,5 +29,14 @@ LidarMotion lidarMotionFromBody(const std::function<Mat3(double tau_s)>& R_B0_B,
 /// A scan without per-beam times (time_increment 0) is returned as it is.
 LidarScan deskewScan(const LidarScan& scan, const LidarMotion& motion,
                      double max_step_fraction = 0.05);
+
+/// The body's mean rate over a scan's sweep from raw gyro samples: the mean of the samples inside
+/// the sweep less bias_radps; without one inside, the nearest sample's. Zero without samples.
+Vec3 meanSweepRate(const LidarScan& scan, std::span<const ImuSample> gyro, const Vec3& bias_radps);
+
+/// The scan made instantaneous at its stamp with the body turning at meanSweepRate and moving at
+/// v_B (its velocity in the body frame; zero: the turn alone, the LiDAR's lever arm included).
+LidarScan deskewScanWithGyro(const LidarScan& scan, std::span<const ImuSample> gyro,
+                             const Vec3& bias_radps, const Vec3& v_B, const SE3& T_B_L);
 
 }  // namespace ovo::estimator

@@ -114,6 +114,38 @@ TEST(LidarDeskew, AFastSpinIsResampledToo) {
   EXPECT_LE(invalid, 16);  // the grid's far end, which the spin moved every beam away from
 }
 
+// The kf's deskew: the turn from raw gyro samples (200 Hz, with a bias the filter knows), no
+// velocity. A turn on the spot about the body's origin: the LiDAR, 0.45 m ahead of it, still moves.
+TEST(LidarDeskew, TheGyroAloneDeskewsATurnOnTheSpot) {
+  Sweep sweep;
+  sweep.v_B = Vec3::Zero();
+  const LidarScan swept = sweep.scan(true), truth = sweep.scan(false);
+  const Vec3 bias(0.01, -0.02, 0.005);
+  std::vector<ImuSample> gyro;
+  for (Timestamp t = swept.t_ns - 200'000'000; t <= swept.t_ns + 300'000'000; t += 5'000'000)
+    gyro.push_back({t, Vec3(0.0, 0.0, sweep.yaw_rate) + bias, Vec3::Zero()});
+  EXPECT_NEAR((meanSweepRate(swept, gyro, bias) - Vec3(0, 0, sweep.yaw_rate)).norm(), 0.0, 1e-12);
+  const Errors raw = rangeErrors(swept, truth);
+  const Errors fixed =
+      rangeErrors(deskewScanWithGyro(swept, gyro, bias, Vec3::Zero(), sweep.T_B_L), truth);
+  EXPECT_GT(raw.p95, 0.03);  // 20 deg/s for 75 ms, the lever arm included
+  EXPECT_LT(fixed.median, 0.001);
+  EXPECT_LT(fixed.p95, 0.003);
+  // The bias left in would turn the scan by 0.5 mrad more at its end: still within a few mm.
+  const Errors biased =
+      rangeErrors(deskewScanWithGyro(swept, gyro, Vec3::Zero(), Vec3::Zero(), sweep.T_B_L), truth);
+  EXPECT_GT(biased.median, fixed.median);
+  // Samples that end before the sweep starts: the newest one's rate stands in.
+  const std::vector<ImuSample> old(gyro.begin(), gyro.begin() + 10);
+  EXPECT_NEAR((meanSweepRate(swept, old, bias) - Vec3(0, 0, sweep.yaw_rate)).norm(), 0.0, 1e-12);
+  EXPECT_EQ(meanSweepRate(swept, {}, bias), Vec3::Zero());
+  // Samples on both sides but none inside (a sparse gyro): the nearest one's, not the oldest's.
+  std::vector<ImuSample> around = {{swept.t_ns - 500'000'000, Vec3(9, 9, 9), Vec3::Zero()},
+                                   {swept.t_ns - 1'000'000, Vec3(0, 0, 1), Vec3::Zero()},
+                                   {swept.t_ns + 200'000'000, Vec3(7, 7, 7), Vec3::Zero()}};
+  EXPECT_EQ(meanSweepRate(swept, around, Vec3::Zero()), Vec3(0, 0, 1));
+}
+
 TEST(LidarDeskew, NoMotionOrNoBeamTimesLeavesTheScanAsItIs) {
   const Sweep sweep;
   const LidarScan swept = sweep.scan(true);
