@@ -18,18 +18,20 @@ bool ros1BagsBuilt() { return false; }
 std::string ros1Md5Sum(ros::MsgType) { return {}; }
 
 std::unique_ptr<BagSource> openRos1Bag(const std::filesystem::path& file) {
-  fail("{}: this ovo was built without ROS 1 bags (CMake OVO_WITH_ROS1=OFF); convert the bag to "
-       "rosbag2 (.db3) or MCAP where ovo has them (ovo convert --format mcap)",
-       file.string());
+  fail(
+      "{}: this ovo was built without ROS 1 bags (CMake OVO_WITH_ROS1=OFF); convert the bag to "
+      "rosbag2 (.db3) or MCAP where ovo has them (ovo convert --format mcap)",
+      file.string());
 }
 
 }  // namespace bag
 
 std::unique_ptr<BagWriter> makeRos1BagWriter(const std::filesystem::path& path,
                                              const std::string& /*compression*/) {
-  fail("{}: this ovo was built without ROS 1 bags (CMake OVO_WITH_ROS1=OFF); write rosbag2 (db3) "
-       "or MCAP instead (--format db3|mcap)",
-       path.string());
+  fail(
+      "{}: this ovo was built without ROS 1 bags (CMake OVO_WITH_ROS1=OFF); write rosbag2 (db3) "
+      "or MCAP instead (--format db3|mcap)",
+      path.string());
 }
 
 }  // namespace ovo::io

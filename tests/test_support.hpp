@@ -58,9 +58,9 @@ Eigen::MatrixXd numericJacobian(const std::function<Eigen::VectorXd(const Eigen:
 
 /// Skips a test of ROS 1 bags in a build without them (CMake OVO_WITH_ROS1=OFF, as for arm64);
 /// the test file includes io/rosbag1_reader.hpp.
-#define OVO_REQUIRE_ROS1()                                                      \
-  do {                                                                          \
-    if (!::ovo::io::bag::ros1BagsBuilt())                                       \
+#define OVO_REQUIRE_ROS1()                                                         \
+  do {                                                                             \
+    if (!::ovo::io::bag::ros1BagsBuilt())                                          \
       GTEST_SKIP() << "this ovo was built without ROS 1 bags (OVO_WITH_ROS1=OFF)"; \
   } while (0)
 

@@ -65,8 +65,9 @@ TEST(BagRun, FolderRos1Db3AndMcapGiveIdenticalTrajectories) {
   if (ros1) ASSERT_TRUE(fs::exists(dir / "rosbag" / "run.bag"));
   ASSERT_TRUE(fs::exists(dir / "db3" / "run" / "metadata.yaml"));
 
-  std::vector<std::pair<std::string, fs::path>> inputs = {
-      {"folder", dir / "folder"}, {"db3", dir / "db3" / "run"}, {"mcap", dir / "mcap" / "run.mcap"}};
+  std::vector<std::pair<std::string, fs::path>> inputs = {{"folder", dir / "folder"},
+                                                          {"db3", dir / "db3" / "run"},
+                                                          {"mcap", dir / "mcap" / "run.mcap"}};
   if (ros1) inputs.emplace_back("rosbag", dir / "rosbag" / "run.bag");
   std::string reference;
   for (const auto& [name, input] : inputs) {

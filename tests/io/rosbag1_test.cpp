@@ -7,8 +7,8 @@
 #include <map>
 
 #include "io/bag_source.hpp"
-#include "io/cdr.hpp"
 #include "io/bag_writer.hpp"
+#include "io/cdr.hpp"
 #include "io/rosbag1_check.hpp"
 #include "io/rosbag1_reader.hpp"
 #include "tests/test_support.hpp"
