@@ -1,6 +1,8 @@
 // Kernels of kernels.hpp. Written as simple row loops over int16 row buffers so that the compiler
 // vectorises them for the native ISA (this file gets OVO_KERNEL_FLAGS); descriptor costs use
-// SSE2 / AVX2 / AVX-512 SAD instructions, and AVX-512 paths where noted.
+// SSE2 / AVX2 / AVX-512 SAD instructions on x86, NEON on arm64 and plain loops elsewhere (all
+// integer: the same answers on every path), and AVX-512 paths where noted.
+#if defined(__SSE2__)
 // GCC 12 warns inside its own AVX-512 headers (the _mm512_undefined_* placeholders of unmasked
 // intrinsics, GCC bug 105593); the warnings point at the header, so silence them there.
 #pragma GCC diagnostic push
@@ -8,6 +10,9 @@
 #pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
 #include <immintrin.h>
 #pragma GCC diagnostic pop
+#elif defined(__ARM_NEON)
+#include <arm_neon.h>
+#endif
 
 #include <algorithm>
 #include <cstdlib>
@@ -28,7 +33,7 @@ inline std::uint32_t sadInline(const std::uint8_t* a, const std::uint8_t* b) {
                                     _mm256_loadu_si256(reinterpret_cast<const __m256i*>(b)));
   const __m128i h = _mm_add_epi64(_mm256_castsi256_si128(s), _mm256_extracti128_si256(s, 1));
   return static_cast<std::uint32_t>(_mm_cvtsi128_si32(h) + _mm_extract_epi32(h, 2));
-#else
+#elif defined(__SSE2__)
   const __m128i s0 = _mm_sad_epu8(_mm_loadu_si128(reinterpret_cast<const __m128i*>(a)),
                                   _mm_loadu_si128(reinterpret_cast<const __m128i*>(b)));
   const __m128i s1 = _mm_sad_epu8(_mm_loadu_si128(reinterpret_cast<const __m128i*>(a + 16)),
@@ -36,6 +41,15 @@ inline std::uint32_t sadInline(const std::uint8_t* a, const std::uint8_t* b) {
   const __m128i s = _mm_add_epi64(s0, s1);
   return static_cast<std::uint32_t>(_mm_cvtsi128_si32(s) +
                                     _mm_cvtsi128_si32(_mm_unpackhi_epi64(s, s)));
+#elif defined(__ARM_NEON)
+  // |a - b| per byte, pairwise widened to 16 bit (at most 2 * 255 a lane per half), summed.
+  const uint16x8_t s0 = vpaddlq_u8(vabdq_u8(vld1q_u8(a), vld1q_u8(b)));
+  const uint16x8_t s1 = vpaddlq_u8(vabdq_u8(vld1q_u8(a + 16), vld1q_u8(b + 16)));
+  return vaddlvq_u16(vaddq_u16(s0, s1));
+#else
+  std::uint32_t s = 0;
+  for (int k = 0; k < kDescriptorBytes; ++k) s += static_cast<std::uint32_t>(std::abs(a[k] - b[k]));
+  return s;
 #endif
 }
 
@@ -582,7 +596,10 @@ std::uint32_t ssd32(const std::uint8_t* a, const std::uint8_t* b) {
   const __m256i lo = _mm256_unpacklo_epi8(d, zero), hi = _mm256_unpackhi_epi8(d, zero);
   const __m256i s = _mm256_add_epi32(_mm256_madd_epi16(lo, lo), _mm256_madd_epi16(hi, hi));
   __m128i h = _mm_add_epi32(_mm256_castsi256_si128(s), _mm256_extracti128_si256(s, 1));
-#else
+  h = _mm_add_epi32(h, _mm_shuffle_epi32(h, _MM_SHUFFLE(1, 0, 3, 2)));
+  h = _mm_add_epi32(h, _mm_shuffle_epi32(h, _MM_SHUFFLE(2, 3, 0, 1)));
+  return static_cast<std::uint32_t>(_mm_cvtsi128_si32(h));
+#elif defined(__SSE2__)
   const __m128i zero = _mm_setzero_si128();
   __m128i h = zero;
   for (int k = 0; k < kDescriptorBytes; k += 16) {
@@ -592,10 +609,26 @@ std::uint32_t ssd32(const std::uint8_t* a, const std::uint8_t* b) {
     const __m128i lo = _mm_unpacklo_epi8(d, zero), hi = _mm_unpackhi_epi8(d, zero);
     h = _mm_add_epi32(h, _mm_add_epi32(_mm_madd_epi16(lo, lo), _mm_madd_epi16(hi, hi)));
   }
-#endif
   h = _mm_add_epi32(h, _mm_shuffle_epi32(h, _MM_SHUFFLE(1, 0, 3, 2)));
   h = _mm_add_epi32(h, _mm_shuffle_epi32(h, _MM_SHUFFLE(2, 3, 0, 1)));
   return static_cast<std::uint32_t>(_mm_cvtsi128_si32(h));
+#elif defined(__ARM_NEON)
+  // |a - b| per byte, squared into 16 bit (at most 255^2), accumulated pairwise into 32 bit.
+  uint32x4_t h = vdupq_n_u32(0);
+  for (int k = 0; k < kDescriptorBytes; k += 16) {
+    const uint8x16_t d = vabdq_u8(vld1q_u8(a + k), vld1q_u8(b + k));
+    h = vpadalq_u16(h, vmull_u8(vget_low_u8(d), vget_low_u8(d)));
+    h = vpadalq_u16(h, vmull_u8(vget_high_u8(d), vget_high_u8(d)));
+  }
+  return vaddvq_u32(h);
+#else
+  std::uint32_t s = 0;
+  for (int k = 0; k < kDescriptorBytes; ++k) {
+    const std::uint32_t d = static_cast<std::uint32_t>(std::abs(a[k] - b[k]));
+    s += d * d;
+  }
+  return s;
+#endif
 }
 
 void searchBest(const std::uint8_t* query, const std::uint8_t* descs, const std::int16_t* us,

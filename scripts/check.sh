@@ -18,6 +18,16 @@
 #   scripts/check.sh soak [driving-hours] [ovo_soak options...]
 #       the Release build's ovo_soak: the simulated sequence fed again and again through the
 #       online pipeline (bench/soak.cpp); writes build/soak/soak.csv and soak.svg.
+#   scripts/check.sh arm64 [ctest options...]
+#       cross build for arm64 with Debian's cross toolchain (crossbuild-essential-arm64) and the
+#       :arm64 multiarch -dev packages, then the tests under qemu-user: by default every folder's
+#       but tests/apps (the end-to-end runs; `ctest -LE apps`), else the ctest options given
+#       (e.g. -L io, or -R Kernels). Debian 12's arm64 -dev packages of Ceres, OpenCV and yaml-cpp
+#       cannot be installed beside the amd64 ones, so the build runs in a Debian 12 (amd64) root
+#       made by debootstrap (OVO_ARM64_ROOT, default build-arm64/root) holding only the arm64
+#       ones, the source tree and ../shared/data mounted in it. Needs root (or sudo) for
+#       debootstrap, mount and chroot. ROS 1 bags are off (OVO_WITH_ROS1=OFF: Debian 12 has no
+#       arm64 librosbag-storage-dev); their tests skip. Not part of CI (an hour or more).
 #
 # Environment: OVO_JOBS (parallel build jobs, default nproc), OVO_SHARED_DATA (../shared/data).
 set -euo pipefail
@@ -207,12 +217,71 @@ cmd_soak() {
   "$build/ovo_soak" --hours "$hours" --out "$build/soak" "$@"
 }
 
+# The packages of scripts/setup.sh for arm64 (the architecture-independent ones as they are), less
+# ROS 1's, plus the cross toolchain and qemu-user.
+ARM64_PACKAGES=(crossbuild-essential-arm64 qemu-user cmake ninja-build pkg-config
+  libeigen3-dev libcli11-dev nlohmann-json3-dev opencl-headers
+  libceres-dev:arm64 libsuitesparse-dev:arm64 libopencv-dev:arm64 ocl-icd-opencl-dev:arm64
+  libgtest-dev:arm64 libgmock-dev:arm64 libopengv-dev:arm64 libspdlog-dev:arm64 libfmt-dev:arm64
+  libyaml-cpp-dev:arm64 libtbb-dev:arm64 zlib1g-dev:arm64 libsqlite3-dev:arm64 libzstd-dev:arm64
+  liblz4-dev:arm64 libbz2-dev:arm64)
+
+cmd_arm64() {
+  local root=${OVO_ARM64_ROOT:-$ROOT/build-arm64/root} sudo=""
+  [ "$(id -u)" = 0 ] || sudo=sudo
+  if [ ! -x "$root/usr/bin/aarch64-linux-gnu-g++" ]; then
+    if ! command -v debootstrap >/dev/null; then
+      $sudo apt-get update -qq && $sudo apt-get install -y -qq debootstrap >/dev/null
+    fi
+    [ -x "$root/bin/bash" ] ||
+      $sudo debootstrap --variant=minbase bookworm "$root" http://deb.debian.org/debian
+  fi
+  # The source tree at /ovo (the build goes to its build-arm64/out), ../shared/data beside it;
+  # unmounted on exit (ARM64_MOUNTED is global: the EXIT trap runs after this function returns).
+  ARM64_SUDO=$sudo
+  ARM64_MOUNTED=()
+  unmount_all() {
+    local i
+    for ((i = ${#ARM64_MOUNTED[@]} - 1; i >= 0; i--)); do
+      $ARM64_SUDO umount "${ARM64_MOUNTED[i]}" || true
+    done
+  }
+  trap unmount_all EXIT
+  bind() {
+    $sudo mkdir -p "$2"
+    mountpoint -q "$2" || { $sudo mount --bind "$1" "$2" && ARM64_MOUNTED+=("$2"); }
+  }
+  bind /proc "$root/proc"
+  bind /dev "$root/dev"
+  bind "$ROOT" "$root/ovo"
+  if [ -d "$SHARED" ]; then bind "$SHARED" "$root/shared/data"; fi
+  $sudo cp /etc/resolv.conf "$root/etc/resolv.conf"
+  if [ ! -x "$root/usr/bin/aarch64-linux-gnu-g++" ]; then
+    $sudo chroot "$root" bash -c "dpkg --add-architecture arm64 && apt-get update -qq &&
+      DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends ${ARM64_PACKAGES[*]}"
+  fi
+  local start ctest_args=("$@")
+  [ ${#ctest_args[@]} -gt 0 ] || ctest_args=(-LE apps)
+  start=$(date +%s)
+  $sudo chroot "$root" bash -c "cd /ovo && cmake -S . -B build-arm64/out -G Ninja \
+      -DCMAKE_TOOLCHAIN_FILE=cmake/toolchains/aarch64-linux-gnu.cmake -DCMAKE_BUILD_TYPE=Release \
+      -DOVO_WITH_ROS1=OFF -DOVO_BUILD_BENCH=OFF >/dev/null && cmake --build build-arm64/out -j $JOBS"
+  echo "check.sh arm64: build $(($(date +%s) - start)) s"
+  start=$(date +%s)
+  local status=0
+  $sudo chroot "$root" bash -c "cd /ovo/build-arm64/out && POCL_CACHE_DIR=/tmp/pocl \
+      ctest --output-on-failure -j $JOBS --timeout 3600 $(printf '%q ' "${ctest_args[@]}")" || status=$?
+  echo "check.sh arm64: ctest $(($(date +%s) - start)) s"
+  return $status
+}
+
 cmd=${1:-help}
 shift || true
 case "$cmd" in
   sanitize) cmd_sanitize "$@" ;;
   fuzz) cmd_fuzz "$@" ;;
   soak) cmd_soak "$@" ;;
+  arm64) cmd_arm64 "$@" ;;
   help | -h | --help) usage ;;
   *)
     echo "check.sh: unknown command '$cmd'" >&2

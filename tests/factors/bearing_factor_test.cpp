@@ -134,7 +134,7 @@ TEST(BearingFactor, WhitenedByTheCamerasJacobianTheResidualIsThePixelErrorInSigm
   const auto path = ovo::test::sourcePath("configs/cameras/romovi_ocam.txt");
   const camera::Camera cam = camera::loadCamera(path);
   const double sigma_px = 0.5;
-  for (const Vec2 px_true : {Vec2(320.0, 240.0), Vec2(560.0, 250.0), Vec2(330.0, 40.0)}) {
+  for (const Vec2& px_true : {Vec2(320.0, 240.0), Vec2(560.0, 250.0), Vec2(330.0, 40.0)}) {
     const Vec3 p_C = 4.0 * *camera::unproject(cam, px_true);
     const Vec2 px_meas = px_true + Vec2(0.6, -0.4);  // 0.72 px off
     const Vec3 b_j = *camera::unproject(cam, px_meas);
