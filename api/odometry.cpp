@@ -164,8 +164,10 @@ Odometry::Odometry(const std::string& rig_file, const OdometryOptions& options,
   impl_->on_pose = std::move(on_pose);
   impl_->realtime = options.realtime;
   if (options.realtime) {
+    app::OnlineOptions online;
+    if (!options.keep_trajectory) online.latency_history = 36000;  // flat memory over a day
     impl_->pipeline.emplace(
-        *impl_->est, app::OnlineOptions{},
+        *impl_->est, online,
         [impl = impl_.get()](const app::OnlineOutput& o) { impl->deliver(toPose(o.estimate)); });
     impl_->pipeline->start();
   }

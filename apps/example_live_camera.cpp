@@ -225,6 +225,7 @@ int run(const Args& args) {
   }
   app::OnlineOptions options;
   options.image_queue_depth = args.queue_depth;
+  options.latency_history = 36000;  // a day on the robot: 30 minutes at 20 Hz kept
   app::OnlinePipeline pipeline(*est, options, [&](const app::OnlineOutput& out) {
     const SE3& T = out.estimate.T_W_B;
     const Quat q(T.linear());

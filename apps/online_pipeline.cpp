@@ -217,6 +217,9 @@ void OnlinePipeline::runEstimator() {
         std::lock_guard guard(mutex_);
         ++stats_.frames_processed;
         stats_.latency_ms.push_back(out.latency_ms);
+        const std::size_t keep = options_.latency_history;
+        if (keep > 0 && stats_.latency_ms.size() >= 2 * keep)
+          stats_.latency_ms.erase(stats_.latency_ms.begin(), stats_.latency_ms.end() - keep);
         out.frames_dropped = stats_.frames_dropped;
       }
       if (callback_) callback_(out);

@@ -49,6 +49,10 @@ struct OnlineOptions {
   int frame_queue_depth = 2;   // tracked frames waiting for the estimator stage (frontend waits)
   double gyro_wait_ms = 50.0;  // a frame waits at most this long (from addImage) for the gyro
                                // sample at or after its time, once any gyro sample has been seen
+  /// OnlineStats::latency_ms: 0 keeps every frame's (ovo run --realtime writes them per frame);
+  /// N keeps the last N to 2N, so that a run of hours stays flat in memory (an 8-hour soak's
+  /// vector grew by 4 MB at 20 frames a second).
+  std::size_t latency_history = 0;
 };
 
 /// One processed frame, handed to the output callback.
@@ -67,7 +71,7 @@ struct OnlineStats {
   int frames_dropped = 0;    // images dropped because the pipeline was behind
   int rejected = 0;          // measurements refused (time not increasing, after stop)
   long gyro_in = 0, scans_in = 0;
-  std::vector<double> latency_ms;  // per processed frame
+  std::vector<double> latency_ms;  // per processed frame (the recent ones: latency_history)
   double latencyMedianMs() const;
   double latencyP99Ms() const;
 };

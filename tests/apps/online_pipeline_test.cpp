@@ -6,6 +6,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <chrono>
 #include <condition_variable>
 #include <mutex>
@@ -349,6 +350,36 @@ TEST(OnlinePipeline, LatencyIncludesTheProcessingTime) {
   EXPECT_GE(latency, 30.0);
   EXPECT_EQ(pipeline.stats().latency_ms.at(0), latency);
   EXPECT_EQ(pipeline.stats().latencyMedianMs(), latency);
+}
+
+// A run of hours (ovo_soak, ovo_live_camera, the API without its trajectory) keeps the recent
+// latencies only: the last latency_history to twice that.
+TEST(OnlinePipeline, KeepsOnlyTheRecentLatenciesWhenAskedTo) {
+  ScriptedEstimator est;
+  OnlineOptions options;
+  options.latency_history = 5;
+  options.image_queue_depth = 64;  // not started: all 40 wait, none is dropped
+  std::vector<double> latencies;
+  std::mutex mutex;
+  OnlinePipeline pipeline(est, options, [&](const OnlineOutput& o) {
+    std::lock_guard lock(mutex);
+    latencies.push_back(o.latency_ms);
+  });
+  for (int i = 0; i < 40; ++i) pipeline.addImage(i * kMs, greyImage());
+  pipeline.stop();
+  const OnlineStats s = pipeline.stats();
+  ASSERT_EQ(s.frames_processed, 40);
+  ASSERT_EQ(latencies.size(), 40u);
+  ASSERT_GE(s.latency_ms.size(), 5u);
+  ASSERT_LT(s.latency_ms.size(), 10u);
+  EXPECT_TRUE(std::equal(s.latency_ms.rbegin(), s.latency_ms.rend(), latencies.rbegin()));
+  // By default every frame's is kept (ovo run --realtime writes them per frame).
+  OnlineOptions keep_all;
+  keep_all.image_queue_depth = 64;
+  OnlinePipeline all(est, keep_all, [](const OnlineOutput&) {});
+  for (int i = 0; i < 40; ++i) all.addImage((100 + i) * kMs, greyImage());
+  all.stop();
+  EXPECT_EQ(all.stats().latency_ms.size(), 40u);
 }
 
 TEST(OnlinePipeline, RejectsMeasurementsThatDoNotMoveForwardInTime) {
