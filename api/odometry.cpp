@@ -165,7 +165,7 @@ Odometry::Odometry(const std::string& rig_file, const OdometryOptions& options,
   impl_->realtime = options.realtime;
   if (options.realtime) {
     app::OnlineOptions online;
-    if (!options.keep_trajectory) online.latency_history = 36000;  // flat memory over a day
+    if (!options.keep_trajectory) online.latency_history = app::kLongRunLatencyHistory;
     impl_->pipeline.emplace(
         *impl_->est, online,
         [impl = impl_.get()](const app::OnlineOutput& o) { impl->deliver(toPose(o.estimate)); });

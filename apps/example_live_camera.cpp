@@ -225,7 +225,7 @@ int run(const Args& args) {
   }
   app::OnlineOptions options;
   options.image_queue_depth = args.queue_depth;
-  options.latency_history = 36000;  // a day on the robot: 30 minutes at 20 Hz kept
+  options.latency_history = app::kLongRunLatencyHistory;  // a day on the robot
   app::OnlinePipeline pipeline(*est, options, [&](const app::OnlineOutput& out) {
     const SE3& T = out.estimate.T_W_B;
     const Quat q(T.linear());

@@ -55,6 +55,10 @@ struct OnlineOptions {
   std::size_t latency_history = 0;
 };
 
+/// latency_history for a run of hours (ovo_soak, ovo_live_camera, the API without its
+/// trajectory): 30 minutes at 20 Hz.
+inline constexpr std::size_t kLongRunLatencyHistory = 36000;
+
 /// One processed frame, handed to the output callback.
 struct OnlineOutput {
   estimator::FrameEstimate estimate;

@@ -77,12 +77,16 @@ LidarScan deskewScan(const LidarScan& scan, const LidarMotion& motion, double ma
   return out;
 }
 
-Vec3 meanSweepRate(const LidarScan& scan, std::span<const ImuSample> gyro, const Vec3& bias_radps) {
-  if (gyro.empty()) return Vec3::Zero();
+std::pair<Timestamp, Timestamp> sweepInterval(const LidarScan& scan) {
   const double beams = static_cast<double>(std::max<std::size_t>(scan.ranges_m.size(), 1) - 1);
   const double sweep_s = scan.time_increment_s * beams;
-  const Timestamp t0 = scan.t_ns + fromSeconds(std::min(0.0, sweep_s));
-  const Timestamp t1 = scan.t_ns + fromSeconds(std::max(0.0, sweep_s));
+  return {scan.t_ns + fromSeconds(std::min(0.0, sweep_s)),
+          scan.t_ns + fromSeconds(std::max(0.0, sweep_s))};
+}
+
+Vec3 meanSweepRate(const LidarScan& scan, std::span<const ImuSample> gyro, const Vec3& bias_radps) {
+  if (gyro.empty()) return Vec3::Zero();
+  const auto [t0, t1] = sweepInterval(scan);
   Vec3 sum = Vec3::Zero();
   int n = 0;
   const ImuSample* nearest = &gyro.front();

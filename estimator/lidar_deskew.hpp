@@ -6,6 +6,7 @@
 
 #include <functional>
 #include <span>
+#include <utility>
 
 #include "common/types.hpp"
 
@@ -29,6 +30,10 @@ LidarMotion lidarMotionFromBody(const std::function<Mat3(double tau_s)>& R_B0_B,
 /// A scan without per-beam times (time_increment 0) is returned as it is.
 LidarScan deskewScan(const LidarScan& scan, const LidarMotion& motion,
                      double max_step_fraction = 0.05);
+
+/// The time a scan's beams span, [first beam, last beam] (its stamp for a scan without per-beam
+/// times).
+std::pair<Timestamp, Timestamp> sweepInterval(const LidarScan& scan);
 
 /// The body's mean rate over a scan's sweep from raw gyro samples: the mean of the samples inside
 /// the sweep less bias_radps; without one inside, the nearest sample's. Zero without samples.

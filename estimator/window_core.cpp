@@ -108,9 +108,7 @@ LidarScan WindowCore::deskewed(const LidarScan& scan) const {
     return scan;
   // The body's mean rate over the sweep from the gyro (held past its newest sample: the scan may
   // arrive before the gyro of its last beams), and its velocity from the frames.
-  const double sweep_s = scan.time_increment_s * static_cast<double>(scan.ranges_m.size() - 1);
-  const Timestamp t0 = scan.t_ns + fromSeconds(std::min(0.0, sweep_s));
-  const Timestamp t1 = scan.t_ns + fromSeconds(std::max(0.0, sweep_s));
+  const auto [t0, t1] = sweepInterval(scan);
   Vec3 w_B = Vec3::Zero();
   if (const auto pi = preintegrateOnGyroClock(t0, t1, bias_);
       pi && pi->status() != factors::GyroPreintegration::Status::kNoData)

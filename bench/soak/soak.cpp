@@ -145,7 +145,7 @@ int runSoak(const SoakArgs& args) {
   std::vector<FrameSample> window;  // frames processed since the last CSV row
   long processed = 0, nonfinite = 0;
   OnlineOptions options;
-  if (!args.keep_history) options.latency_history = 36000;  // 30 minutes at 20 Hz
+  if (!args.keep_history) options.latency_history = kLongRunLatencyHistory;
   OnlinePipeline pipeline(*est, options, [&](const OnlineOutput& o) {
     const bool finite = allFinite(o.estimate.T_W_B);
     std::lock_guard lock(mutex);
