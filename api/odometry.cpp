@@ -166,9 +166,9 @@ Odometry::Odometry(const std::string& rig_file, const OdometryOptions& options,
   if (options.realtime) {
     app::OnlineOptions online;
     if (!options.keep_trajectory) online.latency_history = app::kLongRunLatencyHistory;
-    impl_->pipeline.emplace(
-        *impl_->est, online,
-        [impl = impl_.get()](const app::OnlineOutput& o) { impl->deliver(toPose(o.estimate)); });
+    impl_->pipeline.emplace(*impl_->est, online, [impl = impl_.get()](const app::OnlineOutput& o) {
+      impl->deliver(toPose(o.estimate));
+    });
     impl_->pipeline->start();
   }
 }

@@ -63,8 +63,8 @@ struct OdometryOptions {
   /// robot computer: half-resolution frontend, 2 solver iterations; the README's "Speed" gives
   /// its cost in accuracy). Keys set by config_file or settings win.
   std::string budget = "full";
-  bool use_gyro = true;               // false when the robot has no gyro
-  bool use_lidar = true;              // false when it has no LiDAR
+  bool use_gyro = true;   // false when the robot has no gyro
+  bool use_lidar = true;  // false when it has no LiDAR
   /// false (offline): every measurement is processed in the calling thread, in time order, none
   /// dropped; an image waits for the first gyro sample at or after its time (or finish()). The
   /// poses are those of `ovo run`. true (live): two threads of their own process the images; when

@@ -47,9 +47,9 @@ struct RunArgs {
   bool json = false;
   bool realtime = false;
   bool serial = false;
-  int threads = 0;      // at most this many threads (0: every core)
+  int threads = 0;              // at most this many threads (0: every core)
   std::string budget = "full";  // compute preset (apps/run_budget.hpp)
-  bool strict = false;  // a bad record in a stream is an error (else skipped and counted)
+  bool strict = false;          // a bad record in a stream is an error (else skipped and counted)
   double rate = 1.0;
   int queue_depth = 2;
   bool viewer = false;
@@ -231,7 +231,8 @@ int runRun(const RunArgs& args) {
   metrics["time_offset_s"] = time_offset_s + stats.time_offset_s.value_or(0.0);
   metrics["time_offset_rig_s"] = time_offset_s;
   metrics["time_offset_estimated"] = stats.time_offset_s.has_value();
-  if (stats.camera_height_offset_m) metrics["camera_height_offset_m"] = *stats.camera_height_offset_m;
+  if (stats.camera_height_offset_m)
+    metrics["camera_height_offset_m"] = *stats.camera_height_offset_m;
   if (args.realtime) {
     metrics["realtime_rate"] = args.rate;
     metrics["timing"]["replay_lag_ms_max"] = replay_lag_ms_max;

@@ -230,9 +230,8 @@ int run(const Args& args) {
     const SE3& T = out.estimate.T_W_B;
     const Quat q(T.linear());
     std::printf("%.9f %.6f %.6f %.6f %.9f %.9f %.9f %.9f\n",
-                toSeconds(out.estimate.t_ns + image_shift_ns),
-                T.translation().x(), T.translation().y(), T.translation().z(), q.x(), q.y(), q.z(),
-                q.w());
+                toSeconds(out.estimate.t_ns + image_shift_ns), T.translation().x(),
+                T.translation().y(), T.translation().z(), q.x(), q.y(), q.z(), q.w());
     std::fflush(stdout);
     if (viewer) viewer->addFrame(out.estimate, out.grey, {out.frames_dropped, out.latency_ms});
   });

@@ -32,7 +32,8 @@ int main(int argc, char** argv) {
   app.add_flag("-v,--verbose", verbose, "Debug logging");
 
   auto& registry = commandRegistry();
-  std::sort(registry.begin(), registry.end(), [](const auto& a, const auto& b) { return a.name < b.name; });
+  std::sort(registry.begin(), registry.end(),
+            [](const auto& a, const auto& b) { return a.name < b.name; });
   std::map<CLI::App*, CommandRunner> runners;
   for (const auto& entry : registry) {
     CLI::App* sub = app.add_subcommand(entry.name, entry.description);

@@ -12,11 +12,12 @@ namespace ovo::app {
 
 struct RunTiming {
   std::vector<double> frontend_ms, estimator_ms, total_ms;
-  std::vector<double> keyframe_ms;  // estimator_ms of the keyframes (their solve and marginalisation)
+  std::vector<double>
+      keyframe_ms;            // estimator_ms of the keyframes (their solve and marginalisation)
   double cpu_s = -1.0;        // user + system CPU of the run, decoding included; < 0: not measured
   double peak_rss_mb = -1.0;  // peak resident memory of the process; < 0: not measured
-  double sequence_s = 0.0;  // sensor time covered by the run
-  double wall_s = 0.0;      // processing wall time
+  double sequence_s = 0.0;    // sensor time covered by the run
+  double wall_s = 0.0;        // processing wall time
   // Online runs only (metrics gain latency_ms_median/_p99, frames_dropped, frames_in):
   std::optional<int> frames_dropped;  // camera frames the pipeline dropped when behind
   int frames_in = 0;                  // camera frames handed to the pipeline

@@ -82,7 +82,6 @@ const std::optional<RecordedRun>& recordedRun(std::string* why) {
   return run;
 }
 
-
 void BM_WindowSolve(benchmark::State& state) {
   std::string why;
   const auto& run = recordedRun(&why);

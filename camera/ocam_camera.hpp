@@ -16,8 +16,8 @@ struct OcamParams {
   std::vector<double> ss;      // a0..aN of z'(rho) (pixels), a0 < 0, a1 = 0
   std::vector<double> invpol;  // rho(theta) = sum p_i theta^i (pixels), theta = atan(z' / |(x',
                                // y')|); empty: fitted from ss
-  double center_row = 0.0;           // xc (pixels, from 0)
-  double center_col = 0.0;           // yc (pixels, from 0)
+  double center_row = 0.0;     // xc (pixels, from 0)
+  double center_col = 0.0;     // yc (pixels, from 0)
   double c = 1.0, d = 0.0, e = 0.0;  // affine: [row; col] = [c d; e 1] [x'; y'] + [xc; yc]
   int height = 0;                    // pixels
   int width = 0;                     // pixels

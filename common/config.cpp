@@ -16,8 +16,8 @@ namespace ovo {
 struct Config::Impl {
   YAML::Node root{YAML::NodeType::Map};
   std::string source = "<defaults>";
-  std::set<std::string> overridden;        // keys set by --set (reported as such)
-  mutable std::set<std::string> used;      // leaf keys or prefixes read
+  std::set<std::string> overridden;    // keys set by --set (reported as such)
+  mutable std::set<std::string> used;  // leaf keys or prefixes read
 };
 
 namespace {
@@ -65,7 +65,8 @@ std::optional<YAML::Node> findNullLeaf(const YAML::Node& root, const std::string
   return std::nullopt;
 }
 
-void collectLeaves(const YAML::Node& node, const std::string& prefix, std::vector<std::string>& out) {
+void collectLeaves(const YAML::Node& node, const std::string& prefix,
+                   std::vector<std::string>& out) {
   if (node.IsMap()) {
     for (const auto& kv : node) {
       const std::string k = kv.first.as<std::string>();
@@ -87,7 +88,8 @@ std::string where(const Config::Impl& impl, const std::string& key, const YAML::
 }
 
 template <typename T>
-T scalarAs(const Config::Impl& impl, const std::string& key, const YAML::Node& node, const char* expected);
+T scalarAs(const Config::Impl& impl, const std::string& key, const YAML::Node& node,
+           const char* expected);
 
 double asDouble(const Config::Impl& impl, const std::string& key, const YAML::Node& node) {
   if (!node.IsScalar()) fail("{}: key '{}': expected a number", where(impl, key, node), key);
@@ -101,7 +103,8 @@ double asDouble(const Config::Impl& impl, const std::string& key, const YAML::No
   }
   if (pos == 0 || pos != s.size())
     fail("{}: key '{}': expected a number, got '{}'", where(impl, key, node), key, s);
-  if (!std::isfinite(v)) fail("{}: key '{}': expected a finite number, got '{}'", where(impl, key, node), key, s);
+  if (!std::isfinite(v))
+    fail("{}: key '{}': expected a finite number, got '{}'", where(impl, key, node), key, s);
   return v;
 }
 
@@ -126,7 +129,8 @@ bool asBool(const Config::Impl& impl, const std::string& key, const YAML::Node& 
     std::transform(s.begin(), s.end(), s.begin(), ::tolower);
     if (s == "true" || s == "yes" || s == "on" || s == "1") return true;
     if (s == "false" || s == "no" || s == "off" || s == "0") return false;
-    fail("{}: key '{}': expected true or false, got '{}'", where(impl, key, node), key, node.Scalar());
+    fail("{}: key '{}': expected true or false, got '{}'", where(impl, key, node), key,
+         node.Scalar());
   }
   fail("{}: key '{}': expected true or false", where(impl, key, node), key);
 }
@@ -137,8 +141,10 @@ std::string asString(const Config::Impl& impl, const std::string& key, const YAM
 }
 
 template <typename T, typename F>
-std::vector<T> asVector(const Config::Impl& impl, const std::string& key, const YAML::Node& node, F elem) {
-  if (!node.IsSequence()) fail("{}: key '{}': expected a list like [1, 2, 3]", where(impl, key, node), key);
+std::vector<T> asVector(const Config::Impl& impl, const std::string& key, const YAML::Node& node,
+                        F elem) {
+  if (!node.IsSequence())
+    fail("{}: key '{}': expected a list like [1, 2, 3]", where(impl, key, node), key);
   std::vector<T> out;
   for (const auto& item : node) out.push_back(elem(impl, key, item));
   return out;
@@ -178,7 +184,8 @@ Config Config::fromString(const std::string& yaml, const std::string& source_nam
   try {
     YAML::Node root = YAML::Load(yaml);
     if (root.IsNull()) root = YAML::Node(YAML::NodeType::Map);
-    if (!root.IsMap()) fail("{}: expected a YAML mapping (key: value lines) at the top", source_name);
+    if (!root.IsMap())
+      fail("{}: expected a YAML mapping (key: value lines) at the top", source_name);
     checkYamlDocument(root, source_name);
     c.impl_->root = root;
   } catch (const YAML::Exception& e) {
@@ -189,8 +196,7 @@ Config Config::fromString(const std::string& yaml, const std::string& source_nam
 
 void Config::applyOverride(const std::string& assignment) {
   const auto eq = assignment.find('=');
-  if (eq == std::string::npos || eq == 0)
-    fail("--set '{}': expected key.path=value", assignment);
+  if (eq == std::string::npos || eq == 0) fail("--set '{}': expected key.path=value", assignment);
   const std::string key = assignment.substr(0, eq);
   const std::string value = assignment.substr(eq + 1);
   YAML::Node value_node;
@@ -261,7 +267,8 @@ T Config::get(const std::string& key, const T& fallback) const {
     return asBool(im, key, *node);
   } else if constexpr (std::is_same_v<T, int>) {
     const long long v = asInt(im, key, *node);
-    if (v < INT32_MIN || v > INT32_MAX) fail("{}: key '{}': integer out of range", where(im, key, *node), key);
+    if (v < INT32_MIN || v > INT32_MAX)
+      fail("{}: key '{}': integer out of range", where(im, key, *node), key);
     return static_cast<int>(v);
   } else if constexpr (std::is_same_v<T, std::int64_t>) {
     return static_cast<std::int64_t>(asInt(im, key, *node));
@@ -272,9 +279,10 @@ T Config::get(const std::string& key, const T& fallback) const {
   } else if constexpr (std::is_same_v<T, std::vector<double>>) {
     return asVector<double>(im, key, *node, asDouble);
   } else if constexpr (std::is_same_v<T, std::vector<int>>) {
-    return asVector<int>(im, key, *node, [](const Impl& i, const std::string& k, const YAML::Node& n) {
-      return static_cast<int>(asInt(i, k, n));
-    });
+    return asVector<int>(im, key, *node,
+                         [](const Impl& i, const std::string& k, const YAML::Node& n) {
+                           return static_cast<int>(asInt(i, k, n));
+                         });
   } else if constexpr (std::is_same_v<T, std::vector<std::string>>) {
     return asVector<std::string>(im, key, *node, asString);
   } else if constexpr (std::is_same_v<T, Eigen::Matrix4d>) {
@@ -282,15 +290,16 @@ T Config::get(const std::string& key, const T& fallback) const {
     if (node->IsSequence() && node->size() == 4 && (*node)[0].IsSequence()) {
       for (const auto& row : *node) {
         auto r = asVector<double>(im, key, row, asDouble);
-        if (r.size() != 4) fail("{}: key '{}': expected 4 rows of 4 numbers", where(im, key, *node), key);
+        if (r.size() != 4)
+          fail("{}: key '{}': expected 4 rows of 4 numbers", where(im, key, *node), key);
         flat.insert(flat.end(), r.begin(), r.end());
       }
     } else {
       flat = asVector<double>(im, key, *node, asDouble);
     }
     if (flat.size() != 16)
-      fail("{}: key '{}': expected a 4x4 matrix (16 numbers, row-major), got {} numbers", where(im, key, *node),
-           key, flat.size());
+      fail("{}: key '{}': expected a 4x4 matrix (16 numbers, row-major), got {} numbers",
+           where(im, key, *node), key, flat.size());
     Eigen::Matrix4d M;
     for (int r = 0; r < 4; ++r)
       for (int c = 0; c < 4; ++c) M(r, c) = flat[4 * r + c];
@@ -310,7 +319,7 @@ T Config::require(const std::string& key) const {
   }
 }
 
-#define OVO_CONFIG_INSTANTIATE(T)                                  \
+#define OVO_CONFIG_INSTANTIATE(T)                                \
   template T Config::get<T>(const std::string&, const T&) const; \
   template T Config::require<T>(const std::string&) const;
 OVO_CONFIG_INSTANTIATE(bool)
@@ -345,8 +354,8 @@ int Config::getIntInRange(const std::string& key, int fallback, int lo, int hi) 
   return integerInRange(*this, key, fallback, lo, hi);
 }
 
-std::int64_t Config::getInt64InRange(const std::string& key, std::int64_t fallback,
-                                     std::int64_t lo, std::int64_t hi) const {
+std::int64_t Config::getInt64InRange(const std::string& key, std::int64_t fallback, std::int64_t lo,
+                                     std::int64_t hi) const {
   return integerInRange(*this, key, fallback, lo, hi);
 }
 
@@ -371,7 +380,8 @@ void Config::checkAllUsed() const {
     if (key.empty()) continue;
     bool ok = false;
     for (const auto& u : impl_->used) {
-      if (key == u || (key.size() > u.size() && key.compare(0, u.size(), u) == 0 && key[u.size()] == '.')) {
+      if (key == u ||
+          (key.size() > u.size() && key.compare(0, u.size(), u) == 0 && key[u.size()] == '.')) {
         ok = true;
         break;
       }
@@ -380,7 +390,8 @@ void Config::checkAllUsed() const {
   }
   if (unknown.empty()) return;
   std::string msg;
-  for (const auto& key : unknown) msg += fmt::format("\n  unknown key '{}' ({})", key, location(key));
+  for (const auto& key : unknown)
+    msg += fmt::format("\n  unknown key '{}' ({})", key, location(key));
   fail("{}: {} unknown configuration key(s):{}", impl_->source, unknown.size(), msg);
 }
 

@@ -24,7 +24,8 @@ template <typename... Args>
 template <typename... Args>
 [[noreturn]] void failAt(const std::string& file, long line, fmt::format_string<Args...> format,
                          Args&&... args) {
-  throw Error(fmt::format("{}:{}: {}", file, line, fmt::format(format, std::forward<Args>(args)...)));
+  throw Error(
+      fmt::format("{}:{}: {}", file, line, fmt::format(format, std::forward<Args>(args)...)));
 }
 
 }  // namespace ovo

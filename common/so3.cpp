@@ -16,7 +16,8 @@ Mat3 exp(const Vec3& w) {
   const Mat3 W = hat(w);
   if (theta2 < 1e-16) return Mat3::Identity() + W + 0.5 * W * W;
   const double theta = std::sqrt(theta2);
-  return Mat3::Identity() + (std::sin(theta) / theta) * W + ((1.0 - std::cos(theta)) / theta2) * W * W;
+  return Mat3::Identity() + (std::sin(theta) / theta) * W +
+         ((1.0 - std::cos(theta)) / theta2) * W * W;
 }
 
 Vec3 log(const Mat3& R) {
@@ -49,9 +50,7 @@ Mat3 rightJacobianInverse(const Vec3& w) {
          (1.0 / theta2 - (1.0 + std::cos(theta)) / (2.0 * theta * std::sin(theta))) * W * W;
 }
 
-double angle(const Mat3& R) {
-  return log(R).norm();
-}
+double angle(const Mat3& R) { return log(R).norm(); }
 
 Mat3 orthonormalize(const Mat3& R) {
   Eigen::JacobiSVD<Mat3> svd(R, Eigen::ComputeFullU | Eigen::ComputeFullV);

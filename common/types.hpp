@@ -14,7 +14,9 @@ using Timestamp = std::int64_t;  // nanoseconds
 
 constexpr double kNsPerSec = 1e9;
 inline double toSeconds(Timestamp t_ns) { return static_cast<double>(t_ns) * 1e-9; }
-inline Timestamp fromSeconds(double t_s) { return static_cast<Timestamp>(t_s * 1e9 + (t_s >= 0 ? 0.5 : -0.5)); }
+inline Timestamp fromSeconds(double t_s) {
+  return static_cast<Timestamp>(t_s * 1e9 + (t_s >= 0 ? 0.5 : -0.5));
+}
 
 using Vec2 = Eigen::Vector2d;
 using Vec3 = Eigen::Vector3d;
@@ -54,7 +56,9 @@ struct LidarScan {
     const double r = ranges_m[i];
     return r == r && r >= range_min_m && r <= range_max_m;
   }
-  double angle(std::size_t i) const { return angle_min_rad + static_cast<double>(i) * angle_increment_rad; }
+  double angle(std::size_t i) const {
+    return angle_min_rad + static_cast<double>(i) * angle_increment_rad;
+  }
   /// End point of beam i in L (z = 0 plane).
   Vec3 point_L(std::size_t i) const {
     const double a = angle(i);

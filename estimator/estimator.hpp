@@ -29,10 +29,10 @@ struct SensorSetup {
   double camera_rate_hz = 20.0;
   double pixel_sigma = 0.5;                              // px, image measurement noise
   std::optional<double> camera_height_m = std::nullopt;  // above the ground, for ground-plane scale
-  double time_offset_s = 0.0;      // image stamp = gyro-clock time + this (rig.yaml prior), s
-  double rolling_shutter_s = 0.0;  // rows read out top to bottom over this (0: global), s
-  double gyro_noise_density = 1.7e-4;                    // rad/s/sqrt(Hz)
-  double gyro_bias_random_walk = 2.0e-5;                 // rad/s^2/sqrt(Hz)
+  double time_offset_s = 0.0;          // image stamp = gyro-clock time + this (rig.yaml prior), s
+  double rolling_shutter_s = 0.0;      // rows read out top to bottom over this (0: global), s
+  double gyro_noise_density = 1.7e-4;  // rad/s/sqrt(Hz)
+  double gyro_bias_random_walk = 2.0e-5;  // rad/s^2/sqrt(Hz)
   double lidar_range_sigma_m = 0.02;
   bool has_gyro = false;
   bool has_lidar = false;

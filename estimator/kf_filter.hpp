@@ -50,15 +50,15 @@ struct KfOptions {
                                    // frame-to-frame yaw error on the simulator: 3e-4, six times
                                    // that, left the bias to the standstill, 0.2 mrad/s off)
   double vo_sigma_per_rad = 0.05;  // k_turn: extra VO noise per rad turned per frame, rad/rad
-  double bias_freeze_rate_radps = 0.35;  // w_freeze: bias frozen above this turning rate, rad/s
-  double vo_gate_chi2 = 16.0;            // reject VO updates with r^T S^-1 r above this; 0: off
-                                         // (25 let a stopping robot's low-parallax rotation
-                                         // through: 0.3 deg of yaw in one update)
-  double zero_rate_gate_chi2 = 0.0;      // ... and zero-rate updates; 0: off
+  double bias_freeze_rate_radps = 0.35;   // w_freeze: bias frozen above this turning rate, rad/s
+  double vo_gate_chi2 = 16.0;             // reject VO updates with r^T S^-1 r above this; 0: off
+                                          // (25 let a stopping robot's low-parallax rotation
+                                          // through: 0.3 deg of yaw in one update)
+  double zero_rate_gate_chi2 = 0.0;       // ... and zero-rate updates; 0: off
   double zero_rate_sigma_radps = 1.0e-3;  // smallest noise of one zero-rate update, rad/s: a
                                           // standing robot's idle vibration, not only the
                                           // gyro's white noise (sigma_g / sqrt(T))
-  double max_gyro_gap_s = 0.05;          // longer without gyro: predict without it, s
+  double max_gyro_gap_s = 0.05;           // longer without gyro: predict without it, s
   double gap_rotation_noise = 1.0;  // sigma_gap, rotation random walk without gyro, rad/sqrt(s)
   bool operator==(const KfOptions&) const = default;
 };

@@ -236,8 +236,7 @@ std::vector<FactorSpec> buildFactors(const std::vector<Keyframe*>& keyframes,
       out.push_back(std::move(w));
     }
   }
-  const bool with_height =
-      camera_height_offset_m != nullptr && estimatesCameraHeight(model);
+  const bool with_height = camera_height_offset_m != nullptr && estimatesCameraHeight(model);
   bool height_used = false;
   if (model.camera_height_m > 0.0) {
     for (auto& [id, lm] : landmarks) {
@@ -372,8 +371,8 @@ std::vector<FactorSpec> buildFactors(const std::vector<Keyframe*>& keyframes,
   // while the motion does not show it (a constant rate), and the camera height while the LiDAR
   // sees little. They touch no keyframe: never marginalised.
   const auto scalarPrior = [&](double* block, bool used, FactorKind kind, double sigma) {
-    const auto& kept = gauge.marginalization ? gauge.marginalization->keptBlocks()
-                                             : std::vector<double*>{};
+    const auto& kept =
+        gauge.marginalization ? gauge.marginalization->keptBlocks() : std::vector<double*>{};
     if (!used && std::find(kept.begin(), kept.end(), block) == kept.end()) return;
     FactorSpec p;
     p.kind = kind;

@@ -77,17 +77,17 @@ struct WindowGauge {
 };
 
 enum class FactorKind {
-  kBearing,         // a sighting of a landmark (anchor-relative or a step from the previous one)
-  kGyro,            // preintegrated gyro rotation from the previous keyframe
-  kBiasWalk,        // gyro bias random walk from the previous keyframe
-  kBiasPrior,       // the gauge keyframe's bias prior
-  kZeroRate,        // a standstill's zero-rate update on a keyframe's bias
-  kPosePrior,       // the gauge keyframe's pose prior
-  kLidar,           // a LiDAR range (or ground-plane height) to a landmark
-  kMarginal,        // the marginalisation prior
-  kGround,          // a ground landmark's height below its anchor camera
-  kTerrain,         // a ground landmark on its anchor's terrain plane (track) or the plane's walk
-  kRotationTie,     // a keyframe's vision orientation tied to its gyro chain's
+  kBearing,           // a sighting of a landmark (anchor-relative or a step from the previous one)
+  kGyro,              // preintegrated gyro rotation from the previous keyframe
+  kBiasWalk,          // gyro bias random walk from the previous keyframe
+  kBiasPrior,         // the gauge keyframe's bias prior
+  kZeroRate,          // a standstill's zero-rate update on a keyframe's bias
+  kPosePrior,         // the gauge keyframe's pose prior
+  kLidar,             // a LiDAR range (or ground-plane height) to a landmark
+  kMarginal,          // the marginalisation prior
+  kGround,            // a ground landmark's height below its anchor camera
+  kTerrain,           // a ground landmark on its anchor's terrain plane (track) or the plane's walk
+  kRotationTie,       // a keyframe's vision orientation tied to its gyro chain's
   kTimeOffsetPrior,   // the camera-gyro time offset's prior (stays in the window)
   kCameraHeightPrior  // the camera height correction's prior (stays in the window)
 };

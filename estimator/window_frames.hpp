@@ -82,7 +82,9 @@ class FrameLog {
   std::optional<KeyframeState> keptState(int kf_id) const;
   void addKeyframeTime(int kf_id, Timestamp t_ns) { kf_times_[kf_id] = t_ns; }
   void addBias(Timestamp t_ns, const Vec3& bias_radps) { bias_.emplace_back(t_ns, bias_radps); }
-  std::vector<std::pair<Timestamp, Vec3>> biasHistory() const { return {bias_.begin(), bias_.end()}; }
+  std::vector<std::pair<Timestamp, Vec3>> biasHistory() const {
+    return {bias_.begin(), bias_.end()};
+  }
 
   /// The body's position at t (before the frame at t_now whose position is p_now), interpolated
   /// between the recorded frames around t; `fallback` when no recorded frame is at or before t.

@@ -24,8 +24,7 @@ GroundHeightCorrectedFactor::GroundHeightCorrectedFactor(const Vec3& bearing_Ca,
 bool GroundHeightCorrectedFactor::Evaluate(double const* const* parameters, double* residuals,
                                            double** jacobians) const {
   double* plain_jacobians[1] = {jacobians ? jacobians[0] : nullptr};
-  if (!plain_.Evaluate(parameters, residuals, jacobians ? plain_jacobians : nullptr))
-    return false;
+  if (!plain_.Evaluate(parameters, residuals, jacobians ? plain_jacobians : nullptr)) return false;
   residuals[0] -= parameters[1][0] * inv_sigma_;
   if (jacobians && jacobians[1]) jacobians[1][0] = -inv_sigma_;
   return true;

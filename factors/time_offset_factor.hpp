@@ -33,6 +33,4 @@ class GyroTimeOffsetFactor final : public ceres::SizedCostFunction<3, 4, 4, 3, 1
   double td_lin_s_;
 };
 
-
-
 }  // namespace ovo::factors

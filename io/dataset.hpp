@@ -72,7 +72,7 @@ struct Dataset {
   std::vector<std::pair<Timestamp, Vec3>> true_gyro_bias;  // [rad/s], simulator only
   std::vector<std::string> notes;  // what the reader assumed (a bag's record times, ...)
   SkippedRecords skipped;  // bad records the readers skipped (RecordPolicy), by sensor and reason
-  std::optional<TrueTiming> true_timing;                   // sim/truth_timing.yaml, simulator only
+  std::optional<TrueTiming> true_timing;  // sim/truth_timing.yaml, simulator only
 };
 
 /// How a dataset is read: for bags the rig file (--rig) and the topics (--topics

@@ -1,11 +1,12 @@
 #include "tests/test_support.hpp"
 
+#include <sys/wait.h>
+
 #include <array>
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
 #include <sstream>
-#include <sys/wait.h>
 
 namespace ovo::test {
 
@@ -15,14 +16,17 @@ std::filesystem::path sharedData(const std::string& rel) {
   return rel.empty() ? root : root / rel;
 }
 
-std::filesystem::path sourcePath(const std::string& rel) { return std::filesystem::path(OVO_SOURCE_DIR) / rel; }
+std::filesystem::path sourcePath(const std::string& rel) {
+  return std::filesystem::path(OVO_SOURCE_DIR) / rel;
+}
 
 std::filesystem::path tempDir() {
   const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
   std::string name = info ? std::string(info->test_suite_name()) + "." + info->name() : "ovo_test";
   for (char& c : name)
     if (c == '/') c = '_';
-  auto dir = std::filesystem::temp_directory_path() / ("ovo_test_" + std::to_string(::getpid())) / name;
+  auto dir =
+      std::filesystem::temp_directory_path() / ("ovo_test_" + std::to_string(::getpid())) / name;
   std::filesystem::remove_all(dir);
   std::filesystem::create_directories(dir);
   return dir;
@@ -42,7 +46,8 @@ int runOvo(const std::string& args, std::string* out, std::string* err) {
   std::filesystem::create_directories(dir);
   const auto out_path = dir / "stdout.txt";
   const auto err_path = dir / "stderr.txt";
-  const std::string cmd = exe + " " + args + " >" + out_path.string() + " 2>" + err_path.string() + " </dev/null";
+  const std::string cmd =
+      exe + " " + args + " >" + out_path.string() + " 2>" + err_path.string() + " </dev/null";
   const int status = std::system(cmd.c_str());
   if (out) *out = slurp(out_path);
   if (err) *err = slurp(err_path);

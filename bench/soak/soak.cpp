@@ -41,10 +41,10 @@ struct SoakArgs {
   std::string estimator = "window";
   std::string mode = "pingpong";
   std::string budget = "full";  // compute preset (apps/run_budget.hpp)
-  double hours = 1.0;      // of driving (sensor time)
-  double rate = 0.0;       // replay speed; 0: as fast as frames are taken without dropping
-  double sample_s = 60.0;  // driving seconds per CSV row
-  bool keep_history = false;  // the estimator keeps every frame's pose (ovo run's trajectory)
+  double hours = 1.0;           // of driving (sensor time)
+  double rate = 0.0;            // replay speed; 0: as fast as frames are taken without dropping
+  double sample_s = 60.0;       // driving seconds per CSV row
+  bool keep_history = false;    // the estimator keeps every frame's pose (ovo run's trajectory)
   std::vector<std::string> sets;
 };
 
@@ -181,11 +181,10 @@ int runSoak(const SoakArgs& args) {
     const MallocFigures m = mallocFigures();
     const double heap = m.in_use_mb;
     const double driving_s = toSeconds(driving_ns);
-    csv << fmt::format("{:.0f},{:.1f},{},{:.1f},{:.1f},{:.1f},{:.2f},{:.2f},{:.2f},{:.2f},{}\n",
-                       driving_s, wall, w.size(), rss, heap, m.free_mb, percentile(ms, 50),
-                       percentile(ms, 90),
-                       ms.empty() ? 0.0 : *std::max_element(ms.begin(), ms.end()),
-                       percentile(lat, 50), bad);
+    csv << fmt::format(
+        "{:.0f},{:.1f},{},{:.1f},{:.1f},{:.1f},{:.2f},{:.2f},{:.2f},{:.2f},{}\n", driving_s, wall,
+        w.size(), rss, heap, m.free_mb, percentile(ms, 50), percentile(ms, 90),
+        ms.empty() ? 0.0 : *std::max_element(ms.begin(), ms.end()), percentile(lat, 50), bad);
     csv.flush();
     plot_h.push_back(driving_s / 3600.0);
     plot_rss.push_back(rss);
@@ -306,8 +305,9 @@ int main(int argc, char** argv) {
       ->check(CLI::IsMember({"pingpong", "restart"}))
       ->capture_default_str();
   app.add_option("--sample-s", args.sample_s, "Driving seconds per CSV row")->capture_default_str();
-  app.add_flag("--keep-history", args.keep_history,
-               "The estimator keeps every frame's pose, as ovo run does (memory grows with the run)");
+  app.add_flag(
+      "--keep-history", args.keep_history,
+      "The estimator keeps every frame's pose, as ovo run does (memory grows with the run)");
   app.add_option("--out", args.out, "Folder for soak.csv and soak.svg")->capture_default_str();
   app.add_option("--set", args.sets, "Override a configuration key: key.path=value");
   app.add_option("--budget", args.budget, "Compute preset, as ovo run's: full or low")

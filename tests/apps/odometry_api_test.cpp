@@ -40,8 +40,13 @@ ApiRun runApi(const io::Dataset& data, const fs::path& rig_file, Timestamp image
     }
     for (; s < data.scans.size() && data.scans[s].t_ns <= t; ++s) {
       const LidarScan& l = data.scans[s];
-      Scan scan{l.t_ns, l.angle_min_rad, l.angle_increment_rad, l.range_min_m, l.range_max_m,
-                l.time_increment_s, std::vector<float>(l.ranges_m.begin(), l.ranges_m.end())};
+      Scan scan{l.t_ns,
+                l.angle_min_rad,
+                l.angle_increment_rad,
+                l.range_min_m,
+                l.range_max_m,
+                l.time_increment_s,
+                std::vector<float>(l.ranges_m.begin(), l.ranges_m.end())};
       odo.addScan(scan);
     }
     odo.addImage(t + image_delay_ns, io::loadDatasetImage(data, i));

@@ -11,8 +11,8 @@
 #include <sstream>
 
 #include "camera/calib_io.hpp"
-#include "io/dataset.hpp"
 #include "common/config.hpp"
+#include "io/dataset.hpp"
 #include "tests/apps/online_test_data.hpp"
 
 namespace ovo::test {

@@ -2,7 +2,6 @@
 // the image, tracks, LiDAR points and top view, snapshots round-trip, and (when xvfb-run exists)
 // `ovo run --viewer` opens its real window under Xvfb and saves a screenshot.
 #include "apps/viewer.hpp"
-#include "common/error.hpp"
 
 #include <gtest/gtest.h>
 
@@ -10,6 +9,7 @@
 #include <fstream>
 #include <opencv2/imgcodecs.hpp>
 
+#include "common/error.hpp"
 #include "tests/apps/online_test_data.hpp"
 #include "tests/test_support.hpp"
 

@@ -8,7 +8,8 @@ namespace ovo {
 namespace {
 
 TEST(So3, ExpLogRoundTripIncludingNearPi) {
-  for (const Vec3& w : {Vec3(0.1, -0.2, 0.3), Vec3(1e-9, 2e-9, -1e-9), Vec3(0, 0, 3.1), Vec3(2.0, -1.0, 0.5)}) {
+  for (const Vec3& w :
+       {Vec3(0.1, -0.2, 0.3), Vec3(1e-9, 2e-9, -1e-9), Vec3(0, 0, 3.1), Vec3(2.0, -1.0, 0.5)}) {
     const Vec3 back = so3::log(so3::exp(w));
     EXPECT_LT((back - w).norm(), 1e-9) << w.transpose();
   }
@@ -28,7 +29,8 @@ TEST(So3, RightJacobianMatchesNumericAndInverse) {
   };
   const Eigen::MatrixXd Jn = test::numericJacobian(f, Eigen::VectorXd::Zero(3));
   OVO_EXPECT_JACOBIAN_NEAR(so3::rightJacobian(w), Jn, 1e-7);
-  EXPECT_LT((so3::rightJacobian(w) * so3::rightJacobianInverse(w) - Mat3::Identity()).norm(), 1e-12);
+  EXPECT_LT((so3::rightJacobian(w) * so3::rightJacobianInverse(w) - Mat3::Identity()).norm(),
+            1e-12);
 }
 
 }  // namespace

@@ -120,8 +120,9 @@ TEST(WindowCore, TracksADriveWithMetricScaleFromTheLidar) {
 
 // The rig's camera height 3 cm short (0.97 m for the true 1.0 m; on rough ground the ground the
 // camera sees sits off the height the rig gives): with estimate_camera_height the window
-// estimates the correction from the LiDAR, and its final distance comes out nearer the truth than with the
-// rig's height held. Measured: correction +2.86 cm, distance error 0.07 % against 0.68 % held.
+// estimates the correction from the LiDAR, and its final distance comes out nearer the truth than
+// with the rig's height held. Measured: correction +2.86 cm, distance error 0.07 % against 0.68 %
+// held.
 TEST(WindowCore, EstimatesACorrectionOfTheRigsCameraHeight) {
   SyntheticOptions o;
   o.duration_s = 10.0;

@@ -3,11 +3,12 @@
 // still took for standing. The initialisation's LiDAR scale vote (voteLidarScale) on range
 // ratios with known groups.
 #include "estimator/window_init.hpp"
-#include "estimator/window_standstill.hpp"
 
 #include <gtest/gtest.h>
 
 #include <random>
+
+#include "estimator/window_standstill.hpp"
 
 namespace ovo::estimator {
 namespace {

@@ -230,7 +230,8 @@ TEST(WindowMemory, SettlingKeepsEveryPose) {
       r.ref_kf = f / 4;
       r.T_kf_B.translation() = Vec3(0.3 + 0.1 * f, -0.05 * f, 0.01 * f);
       r.T_kf_B.linear() = so3::exp(Vec3(0.01 * f, 0.0, 0.02));
-      if (f % 2 == 1) r.gyro = GyroSpan{so3::exp(Vec3(0.0, 0.0, 0.01 * f)), Mat3::Identity(), Vec3::Zero()};
+      if (f % 2 == 1)
+        r.gyro = GyroSpan{so3::exp(Vec3(0.0, 0.0, 0.01 * f)), Mat3::Identity(), Vec3::Zero()};
       r.T_W_B = kfs[r.ref_kf]->bodyPose() * r.T_kf_B;
       log.add(r);
       if (f % 4 == 0) log.addKeyframeTime(r.ref_kf, r.t_ns);

@@ -23,7 +23,8 @@ std::vector<std::uint8_t> encoded(const std::string& ext, const cv::Mat& image) 
 TEST(ImageDecode, TheCameraFormatsDecodeAndOthersAreRefusedBeforeOpenCv) {
   cv::Mat grey(8, 12, CV_8UC1);
   for (int r = 0; r < grey.rows; ++r)
-    for (int c = 0; c < grey.cols; ++c) grey.at<std::uint8_t>(r, c) = static_cast<std::uint8_t>(20 * r + c);
+    for (int c = 0; c < grey.cols; ++c)
+      grey.at<std::uint8_t>(r, c) = static_cast<std::uint8_t>(20 * r + c);
   for (const std::string ext : {".png", ".bmp", ".tiff", ".pgm"}) {
     const cv::Mat out = decodeImageGrey(encoded(ext, grey), "x" + ext);
     ASSERT_EQ(out.size(), grey.size()) << ext;

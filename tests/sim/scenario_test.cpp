@@ -116,9 +116,9 @@ TEST(Scenario, WrittenScenarioReadsBackTheSame) {
 TEST(Scenario, RealitiesReadBackAndAreWrittenOnlyWhenOn) {
   Scenario s = test::defaultScenario();
   const std::string plain = scenarioYaml(s);
-  for (const char* key : {"time_offset_s", "rolling_shutter_s", "frame_drop_probability",
-                          "auto_exposure", "time_jitter_s", "sweep", "scan_time_s",
-                          "ground_roughness_m", "wind_amplitude_m", "rig:"})
+  for (const char* key :
+       {"time_offset_s", "rolling_shutter_s", "frame_drop_probability", "auto_exposure",
+        "time_jitter_s", "sweep", "scan_time_s", "ground_roughness_m", "wind_amplitude_m", "rig:"})
     EXPECT_EQ(plain.find(key), std::string::npos) << key;  // the bytes of older scenarios
   s.camera.time_offset_s = -0.04;
   s.camera.rolling_shutter_s = 0.025;
