@@ -270,7 +270,7 @@ int Odometry::framesProcessed() const {
 }
 
 int Odometry::framesDropped() const {
-  return impl_->pipeline ? impl_->pipeline->stats().frames_dropped : 0;
+  return impl_->pipeline ? impl_->pipeline->framesDropped() : 0;
 }
 
 }  // namespace ovo

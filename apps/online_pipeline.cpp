@@ -258,4 +258,9 @@ OnlineStats OnlinePipeline::stats() const {
   return stats_;
 }
 
+int OnlinePipeline::framesDropped() const {
+  std::lock_guard lock(mutex_);
+  return stats_.frames_dropped;
+}
+
 }  // namespace ovo::app

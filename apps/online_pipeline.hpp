@@ -107,7 +107,10 @@ class OnlinePipeline {
   bool addGyro(const ImuSample& sample);
   bool addScan(const LidarScan& scan);
 
+  /// A copy of the counters and the recent latencies (up to latency_history doubles).
   OnlineStats stats() const;
+  /// stats().frames_dropped without copying the latencies (cheap enough to call every frame).
+  int framesDropped() const;
 
  private:
   using Clock = std::chrono::steady_clock;

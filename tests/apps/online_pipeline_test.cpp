@@ -298,6 +298,7 @@ TEST(OnlinePipeline, DropsTheOldestWaitingFramesWhenBehindAndCountsThem) {
   EXPECT_EQ(s.frames_in, 20);
   EXPECT_EQ(s.frames_processed, 3);
   EXPECT_EQ(s.frames_dropped, 17);
+  EXPECT_EQ(pipeline.framesDropped(), 17);
   EXPECT_EQ(dropped_seen.back(), 17);
   EXPECT_EQ(s.latency_ms.size(), 3u);
 }
