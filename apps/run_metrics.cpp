@@ -63,6 +63,25 @@ nlohmann::json computeRunMetrics(const Trajectory& estimate, const Trajectory& g
   m["gyro_gaps"] = stats.gyro_gaps;
   m["tracking_losses"] = stats.tracking_losses;
   m["notes"] = stats.notes;
+  if (stats.lidar_residuals) {
+    // The range factors' fit (window): RMS of predicted minus measured range, in metres and in
+    // the LiDAR's range noise, over all keyframes and over the turning ones.
+    const estimator::LidarResidualStats& r = *stats.lidar_residuals;
+    const auto inSigmas = [&](double metres) {
+      return r.range_sigma_m > 0.0 ? metres / r.range_sigma_m : 0.0;
+    };
+    nlohmann::json& j = m["lidar_residuals"];
+    j["count"] = r.count;
+    j["rms_m"] = r.rmsM();
+    j["rms_sigmas"] = inSigmas(r.rmsM());
+    j["range_sigma_m"] = r.range_sigma_m;
+    j["rejected"] = r.rejected;
+    j["turning_deg_s"] = estimator::LidarResidualStats::kTurningDegS;
+    j["turning_count"] = r.turning_count;
+    j["turning_rms_m"] = r.turningRmsM();
+    j["turning_rms_sigmas"] = inSigmas(r.turningRmsM());
+    j["turning_rejected"] = r.turning_rejected;
+  }
   if (stats.refine) {
     const estimator::RefineInfo& r = *stats.refine;
     nlohmann::json& j = m["refine"];

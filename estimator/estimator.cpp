@@ -1,5 +1,7 @@
 #include "estimator/estimator.hpp"
 
+#include <cmath>
+
 #include "common/error.hpp"
 #include "estimator/kf_estimator.hpp"
 #include "estimator/vo_estimator.hpp"
@@ -11,6 +13,12 @@ namespace ovo::estimator {
 void failFrontendFrame(const char* estimator, bool non_null) {
   if (!non_null) fail("{}: update() got no frame (track() returns one per image)", estimator);
   fail("{}: update() got a frame tracked by another estimator", estimator);
+}
+
+double LidarResidualStats::rmsM() const { return count > 0 ? std::sqrt(sum_sq_m2 / count) : 0.0; }
+
+double LidarResidualStats::turningRmsM() const {
+  return turning_count > 0 ? std::sqrt(turning_sum_sq_m2 / turning_count) : 0.0;
 }
 
 std::vector<std::string> applyNoiseFloors(SensorSetup& setup) {

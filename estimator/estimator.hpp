@@ -101,6 +101,24 @@ struct RefineInfo {
   std::string message;        // the last pass's solver message
 };
 
+/// How well the window's LiDAR range factors fit at the end (metrics.json "lidar_residuals"):
+/// each range association (not the ground-plane ones) of each keyframe, measured against the
+/// landmark's point as the window last estimated it, when the keyframe left the window (or at the
+/// end). Turning: keyframes whose gyro turned faster than turning_deg_s since the previous one,
+/// where an undeskewed sweep misplaces the beams most.
+struct LidarResidualStats {
+  static constexpr double kTurningDegS = 10.0;
+  double range_sigma_m = 0.0;  // the LiDAR's range noise the residuals compare with, m
+  int count = 0;
+  double sum_sq_m2 = 0.0;  // sum of (predicted - measured range)^2, m^2
+  int rejected = 0;        // associations removed as outliers (not in the sums)
+  int turning_count = 0;
+  double turning_sum_sq_m2 = 0.0;
+  int turning_rejected = 0;
+  double rmsM() const;  // 0 without residuals
+  double turningRmsM() const;
+};
+
 /// Counters an estimator reports at the end of a run (merged into metrics.json).
 struct EstimatorStats {
   int frames = 0;
@@ -120,6 +138,8 @@ struct EstimatorStats {
   // window: the correction of the rig's camera height it estimated (the ground points it sees
   // lie this much further below the camera than the rig's height), m; none when not estimated.
   std::optional<double> camera_height_offset_m;
+  // window: the LiDAR range factors' residuals; none without LiDAR ranges.
+  std::optional<LidarResidualStats> lidar_residuals;
 };
 
 /// The frontend stage's result for one image, handed to the estimator stage. A self-contained

@@ -543,9 +543,10 @@ void WindowCore::settleFrames() {
 void WindowCore::resetWindow() {
   if (!map_.empty()) carried_bias_ = {map_.keyframes.back()->t_ns, map_.keyframes.back()->bias()};
   if (options_.refine == RefineMode::kFull) map_.rememberPoints(setup_.T_B_C);
+  // Counted before any keyframe moves out: the residuals look up the landmarks' anchors.
+  for (const auto& kf : map_.keyframes) countLidar(*kf, stats_);
   for (auto& kf : map_.keyframes) {
     frames_.keepPoses(*kf);
-    countLidar(*kf, stats_);
     if (options_.refine == RefineMode::kFull) map_.archive.push_back(std::move(kf));
   }
   map_.keyframes.clear();
@@ -592,9 +593,38 @@ Trajectory WindowCore::keyframes() const {
   return ontoGyroClock(frames_.keyframes([this](int id) { return keyframeState(id); }));
 }
 
-void WindowCore::countLidar(const Keyframe& kf, EstimatorStats& stats) {
+void WindowCore::countLidar(const Keyframe& kf, EstimatorStats& stats) const {
   stats.lidar_keyframes += kf.lidar.empty() ? 0 : 1;
   stats.lidar_ranges += static_cast<int>(kf.lidar.size());
+  if (kf.lidar.empty() && kf.lidar_rejected.empty()) return;
+  if (!stats.lidar_residuals) {
+    stats.lidar_residuals.emplace();
+    stats.lidar_residuals->range_sigma_m = model_.lidar_range_sigma_m;
+  }
+  LidarResidualStats& r = *stats.lidar_residuals;
+  // The keyframe's mean turn rate since the previous keyframe (the gyro's, bias removed).
+  bool turning = false;
+  if (const auto& pre = kf.preint_from_prev; pre && pre->dtSeconds() > 0.0) {
+    const double angle = Eigen::AngleAxisd(pre->deltaR(kf.bias())).angle();
+    turning = angle / pre->dtSeconds() > LidarResidualStats::kTurningDegS * M_PI / 180.0;
+  }
+  const int rejected = static_cast<int>(kf.lidar_rejected.size());
+  r.rejected += rejected;
+  if (turning) r.turning_rejected += rejected;
+  for (const LidarAssociation& a : kf.lidar) {
+    if (!a.ground_up_L.isZero()) continue;  // a ground-plane height, not a range
+    const auto p_W = map_.pointW(a.track_id, setup_.T_B_C);
+    if (!p_W) continue;
+    const auto residual = lidarResidualM(a, *p_W, kf);
+    if (!residual || !std::isfinite(*residual)) continue;
+    const double sq = *residual * *residual;
+    ++r.count;
+    r.sum_sq_m2 += sq;
+    if (turning) {
+      ++r.turning_count;
+      r.turning_sum_sq_m2 += sq;
+    }
+  }
 }
 
 EstimatorStats WindowCore::stats() const {

@@ -203,6 +203,12 @@ double lidarSigma(const LidarAssociation& a, const WindowModel& model);
 /// plane when planar), differ by more than max(gate_sigmas * lidar_sigma_m, gate_fraction *
 /// range); for a ground-plane association, when the landmark's height off that plane exceeds
 /// gate_sigmas * lidarSigma(a).
+/// The predicted minus the measured value of association a (m): the range to the landmark point
+/// p_W seen from where kf's scan was taken (kf.T_B_L; in the scan plane when planar), or its
+/// height off the ground-beam plane; nullopt when the point sits on the LiDAR.
+std::optional<double> lidarResidualM(const LidarAssociation& a, const Vec3& p_W,
+                                     const Keyframe& kf);
+
 bool lidarOutlier(const LidarAssociation& a, const Vec3& p_W, const Keyframe& kf,
                   const WindowModel& model, double gate_sigmas, double gate_fraction);
 

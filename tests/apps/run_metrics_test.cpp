@@ -108,6 +108,35 @@ TEST(RunMetrics, TheEstimatorsCountersAreWrittenAsTheyAre) {
   EXPECT_FALSE(m.contains("refine"));  // no full refinement ran
 }
 
+// Issue 42: the LiDAR range factors' fit, in metres and in the range noise, over all keyframes and
+// over the turning ones (residuals 3 and 4 cm over 2 ranges, 5 cm over 1 turning range).
+TEST(RunMetrics, LidarResidualsAreWrittenAsRmsInMetresAndInTheRangeNoise) {
+  const Trajectory gt = straightDrive(10, 0.04);
+  estimator::EstimatorStats stats;
+  estimator::LidarResidualStats r;
+  r.range_sigma_m = 0.02;
+  r.count = 2;
+  r.sum_sq_m2 = 0.03 * 0.03 + 0.04 * 0.04;
+  r.rejected = 3;
+  r.turning_count = 1;
+  r.turning_sum_sq_m2 = 0.05 * 0.05;
+  r.turning_rejected = 1;
+  stats.lidar_residuals = r;
+  const nlohmann::json j = computeRunMetrics(gt, gt, stats, {}, 0.05)["lidar_residuals"];
+  EXPECT_EQ(j["count"].get<int>(), 2);
+  EXPECT_NEAR(j["rms_m"].get<double>(), std::sqrt(0.00125), 1e-12);
+  EXPECT_NEAR(j["rms_sigmas"].get<double>(), std::sqrt(0.00125) / 0.02, 1e-9);
+  EXPECT_DOUBLE_EQ(j["range_sigma_m"].get<double>(), 0.02);
+  EXPECT_EQ(j["rejected"].get<int>(), 3);
+  EXPECT_EQ(j["turning_count"].get<int>(), 1);
+  EXPECT_NEAR(j["turning_rms_m"].get<double>(), 0.05, 1e-12);
+  EXPECT_NEAR(j["turning_rms_sigmas"].get<double>(), 2.5, 1e-9);
+  EXPECT_EQ(j["turning_rejected"].get<int>(), 1);
+  EXPECT_GT(j["turning_deg_s"].get<double>(), 0.0);
+  // Without LiDAR ranges (vo, kf, no scans) the key is left out.
+  EXPECT_FALSE(computeRunMetrics(gt, gt, {}, {}, 0.05).contains("lidar_residuals"));
+}
+
 // Issue 43: the keyframes' cost where it is paid, the run's CPU and its peak memory.
 TEST(RunMetrics, KeyframeCostCpuAndMemoryAreReported) {
   const Trajectory gt = straightDrive(10, 0.04);
