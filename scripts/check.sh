@@ -64,6 +64,9 @@ export TSAN_OPTIONS="halt_on_error=1:second_deadlock_stack=1:suppressions=$SUPP/
 # reader of outside data (io, camera calibration files, configs, the fuzz regressions), the
 # window estimator's core, and the runners end to end.
 SUBSET='^(Dataset|TrajectoryIo|StagedFolder|Config|CalibIo|Ocam|Models|FuzzRegression|Targets/FuzzRegression|WindowCore|WindowProblem|WindowInit|WindowLidar|RunOutput|RunMetrics|Faults|Determinism|OnlinePipeline|OnlineRun)'
+# ... and the programs that hold those tests (only these are built for the subset).
+SUBSET_TARGETS=(ovo ovo_test_common ovo_test_camera ovo_test_io ovo_test_fuzz ovo_test_estimator
+  ovo_test_apps)
 
 # The threaded tests (tests/apps/online_*.cpp, the offline runner's two stages, faults under the
 # pipeline), run under TSan.
@@ -73,7 +76,11 @@ sanitize_asan() {
   local subset=$1 dir=$ROOT/build-asan start
   start=$(date +%s)
   configure "$dir" "${SAN_FLAGS[@]}" -DOVO_SANITIZE=address,undefined
-  cmake --build "$dir" -j "$JOBS"
+  if [ "$subset" = 1 ]; then
+    cmake --build "$dir" -j "$JOBS" --target "${SUBSET_TARGETS[@]}"
+  else
+    cmake --build "$dir" -j "$JOBS"
+  fi
   echo "check.sh sanitize asan: build $(($(date +%s) - start)) s"
   start=$(date +%s)
   local filter=()
