@@ -198,17 +198,17 @@ std::unordered_map<int, Keyframe*> keyframesById(const std::vector<Keyframe*>& k
 /// (lidar_ground_sigma_m), in quadrature.
 double lidarSigma(const LidarAssociation& a, const WindowModel& model);
 
-/// The window's LiDAR gate: true when the range association a of keyframe kf measured and the
-/// range to the landmark point p_W, seen from where kf's scan was taken (kf.T_B_L; in the scan
-/// plane when planar), differ by more than max(gate_sigmas * lidar_sigma_m, gate_fraction *
-/// range); for a ground-plane association, when the landmark's height off that plane exceeds
-/// gate_sigmas * lidarSigma(a).
 /// The predicted minus the measured value of association a (m): the range to the landmark point
 /// p_W seen from where kf's scan was taken (kf.T_B_L; in the scan plane when planar), or its
 /// height off the ground-beam plane; nullopt when the point sits on the LiDAR.
 std::optional<double> lidarResidualM(const LidarAssociation& a, const Vec3& p_W,
                                      const Keyframe& kf);
 
+/// The window's LiDAR gate: true when the range association a of keyframe kf measured and the
+/// range to the landmark point p_W, seen from where kf's scan was taken (kf.T_B_L; in the scan
+/// plane when planar), differ by more than max(gate_sigmas * lidar_sigma_m, gate_fraction *
+/// range); for a ground-plane association, when the landmark's height off that plane exceeds
+/// gate_sigmas * lidarSigma(a).
 bool lidarOutlier(const LidarAssociation& a, const Vec3& p_W, const Keyframe& kf,
                   const WindowModel& model, double gate_sigmas, double gate_fraction);
 
