@@ -66,7 +66,7 @@ export TSAN_OPTIONS="halt_on_error=1:second_deadlock_stack=1:suppressions=$SUPP/
 SUBSET='^(Dataset|TrajectoryIo|StagedFolder|Config|CalibIo|Ocam|Models|FuzzRegression|Targets/FuzzRegression|WindowCore|WindowProblem|WindowInit|WindowLidar|RunOutput|RunMetrics|Faults|Determinism|OnlinePipeline|OnlineRun)'
 # ... and the programs that hold those tests (only these are built for the subset).
 SUBSET_TARGETS=(ovo ovo_test_common ovo_test_camera ovo_test_io ovo_test_fuzz ovo_test_estimator
-  ovo_test_apps)
+  ovo_test_apps ovo_test_sim ovo_test_calib)
 
 # The threaded tests (tests/apps/online_*.cpp, the offline runner's two stages, faults under the
 # pipeline), run under TSan.
