@@ -605,8 +605,8 @@ void WindowCore::countLidar(const Keyframe& kf, EstimatorStats& stats) const {
   // The keyframe's mean turn rate since the previous keyframe (the gyro's, bias removed).
   bool turning = false;
   if (const auto& pre = kf.preint_from_prev; pre && pre->dtSeconds() > 0.0) {
-    const double angle = Eigen::AngleAxisd(pre->deltaR(kf.bias())).angle();
-    turning = angle / pre->dtSeconds() > LidarResidualStats::kTurningDegS * M_PI / 180.0;
+    turning = so3::angle(pre->deltaR(kf.bias())) / pre->dtSeconds() >
+              LidarResidualStats::kTurningDegS * M_PI / 180.0;
   }
   const int rejected = static_cast<int>(kf.lidar_rejected.size());
   r.rejected += rejected;
