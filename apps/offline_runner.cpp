@@ -11,7 +11,7 @@
 #include <thread>
 
 #include "common/error.hpp"
-#include "estimator/lidar_ground.hpp"
+#include "estimator/common/lidar_ground.hpp"
 
 namespace ovo::app {
 namespace {

@@ -6,8 +6,8 @@
 #include <algorithm>
 #include <vector>
 
-#include "estimator/window_core.hpp"
-#include "tests/estimator/window_synthetic.hpp"
+#include "estimator/window/core.hpp"
+#include "tests/estimator/window/synthetic.hpp"
 
 namespace {
 

@@ -3,10 +3,10 @@
 #include <cmath>
 
 #include "common/error.hpp"
-#include "estimator/kf_estimator.hpp"
-#include "estimator/vo_estimator.hpp"
-#include "estimator/window_estimator.hpp"
-#include "estimator/window_options.hpp"
+#include "estimator/kf/estimator.hpp"
+#include "estimator/vo/estimator.hpp"
+#include "estimator/window/estimator.hpp"
+#include "estimator/window/options.hpp"
 
 namespace ovo::estimator {
 

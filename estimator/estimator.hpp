@@ -84,7 +84,7 @@ void feedUntilImage(Timestamp t_image, const std::vector<ImuSample>& imu, std::s
     sink.addScan(scans[next_scan++]);
 }
 
-/// What a full refinement (window --refine full, estimator/window_refine.hpp) did: its problem's
+/// What a full refinement (window --refine full, estimator/window/refine.hpp) did: its problem's
 /// size, passes and costs (metrics.json "refine").
 struct RefineInfo {
   int keyframes = 0;

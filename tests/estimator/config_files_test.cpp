@@ -4,11 +4,11 @@
 #include <gtest/gtest.h>
 
 #include "common/config.hpp"
-#include "estimator/ground_plane.hpp"
-#include "estimator/kf_estimator.hpp"
-#include "estimator/vo_chain.hpp"
-#include "estimator/vo_estimator.hpp"
-#include "estimator/window_options.hpp"
+#include "estimator/common/ground_plane.hpp"
+#include "estimator/kf/estimator.hpp"
+#include "estimator/vo/chain.hpp"
+#include "estimator/vo/estimator.hpp"
+#include "estimator/window/options.hpp"
 #include "frontend/frontend.hpp"
 #include "tests/test_support.hpp"
 

@@ -4,8 +4,8 @@
 #include <gtest/gtest.h>
 
 #include "common/config.hpp"
-#include "estimator/kf_estimator.hpp"
-#include "estimator/window_options.hpp"
+#include "estimator/kf/estimator.hpp"
+#include "estimator/window/options.hpp"
 
 namespace ovo::estimator {
 namespace {

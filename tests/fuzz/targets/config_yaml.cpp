@@ -3,11 +3,11 @@
 #include <string>
 
 #include "common/config.hpp"
-#include "estimator/ground_plane.hpp"
-#include "estimator/kf_filter.hpp"
-#include "estimator/lidar_scale.hpp"
-#include "estimator/vo_chain.hpp"
-#include "estimator/window_options.hpp"
+#include "estimator/common/ground_plane.hpp"
+#include "estimator/kf/filter.hpp"
+#include "estimator/common/lidar_scale.hpp"
+#include "estimator/vo/chain.hpp"
+#include "estimator/window/options.hpp"
 #include "factors/gyro_preintegration.hpp"
 #include "frontend/frontend.hpp"
 #include "frontend/relative_pose.hpp"

@@ -1,0 +1,638 @@
+// The window core's frame loop (window_core.hpp says what it does and where its parts live):
+// construction, the scans' intake, each frame from prediction to keyframe, the keyframe's
+// solve, marginalisation and reset, the frame records and the output. Its gyro side is in
+// window_core_gyro.cpp, the start in window_core_start.cpp, standstills in
+// window_core_standstill.cpp.
+#include "estimator/window/core.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <unordered_set>
+#include <utility>
+
+#include "common/so3.hpp"
+#include "estimator/common/lidar_deskew.hpp"
+#include "estimator/window/keyframe_policy.hpp"
+#include "estimator/window/landmarks.hpp"
+#include "estimator/window/refine.hpp"
+#include "estimator/window/rescale.hpp"
+#include "factors/bearing_factor.hpp"
+
+namespace ovo::estimator {
+namespace {
+
+constexpr double kDegToRad = M_PI / 180.0;
+
+double pixelSigma(const SensorSetup& setup, const WindowOptions& options) {
+  return options.pixel_sigma > 0.0 ? options.pixel_sigma : setup.pixel_sigma;
+}
+
+/// The two-view threshold of the initialisation and the ground chain: 3 bearing sigmas, at least
+/// 1 mrad.
+double twoViewInlierRad(const SensorSetup& setup, const WindowOptions& options) {
+  return std::max(3.0 * pixelSigma(setup, options) / camera::focalPx(setup.camera), 1e-3);
+}
+
+}  // namespace
+
+WindowCore::WindowCore(const SensorSetup& setup, const WindowOptions& options,
+                       const frontend::RelativePoseOptions& relpose_options,
+                       const GroundPlaneOptions& ground_options)
+    : setup_(setup),
+      options_(options),
+      model_(makeWindowModel(setup, options)),
+      ground_options_(ground_options),
+      use_gyro_(options.use_gyro && setup.has_gyro),
+      use_lidar_(options.use_lidar && setup.has_lidar),
+      gyro_spikes_(options.gyro_max_jump_radps, options.gyro_max_spike_s),
+      scans_(options_),
+      lidar_(setup_, options_),
+      initializer_(setup_, options_, ground_options, relpose_options,
+                   twoViewInlierRad(setup, options), lidar_, use_gyro_, use_lidar_,
+                   [this](const std::string& text) { note(text); }),
+      still_bias_(setup.gyro_noise_density,
+                  options.gyro_bias_random_walk > 0.0 ? options.gyro_bias_random_walk
+                                                      : setup.gyro_bias_random_walk,
+                  options.standstill_trim_s) {
+  // Without a LiDAR the ground is the only scale after the start (KITTI 07: a start from a
+  // 12-point plane at 0.6x the scale was kept to the end with the tight gate).
+  label_ground_options_ = ground_options;
+  if (!use_lidar_) {
+    options_.ground_scale_gate = options_.ground_scale_gate_no_lidar;
+    // ... and a plane tilted against the body's up biases it: the keyframes' camera-height planes
+    // and the ground chain's before the start use a tighter normal than vo.ground's 20 deg (the
+    // start's two-view plane keeps that: it needs any plane it can get). KITTI 07: --refine full
+    // scale -8.9 % -> -3.1 %; online ATE 1.44 -> 1.19 m.
+    label_ground_options_.max_normal_deviation_deg = std::min(
+        label_ground_options_.max_normal_deviation_deg, options_.ground_normal_max_deg_no_lidar);
+  }
+  if (!use_gyro_) note("no gyro: vision-only rotation (8-point initialisation, no gyro factors)");
+  if (!use_lidar_) {
+    note(setup.camera_height_m ? "no LiDAR: ground-plane scale at initialisation (camera_height_m)"
+                               : "no LiDAR and no camera height: scale is arbitrary");
+  }
+  if (setup.camera_height_m && *setup.camera_height_m > 0.0) {
+    GroundChainOptions chain;
+    chain.min_parallax_deg = options.landmark_min_parallax_deg;
+    chain.min_point_parallax_deg = options.landmark_min_parallax_deg;
+    ground_chain_.emplace(setup.T_B_C, *setup.camera_height_m, twoViewInlierRad(setup, options),
+                          label_ground_options_, chain);
+  }
+}
+
+WindowCore::~WindowCore() = default;
+
+void WindowCore::note(const std::string& text) {
+  if (std::find(stats_.notes.begin(), stats_.notes.end(), text) == stats_.notes.end())
+    stats_.notes.push_back(text);
+}
+
+void WindowCore::addScan(const LidarScan& scan) {
+  if (!use_lidar_) return;
+  // Keep what the window can still use: scans newer than the oldest frame of interest.
+  Timestamp keep_from = last_t_ - fromSeconds(5.0);
+  if (reference_) keep_from = std::min(keep_from, reference_->t_ns);
+  // The scans go onto the images' timeline (their stamps are on the gyro clock, the images' run
+  // ahead by the time offset), with the estimate of the time they arrive: they are used within
+  // a fraction of a second, while the estimate moves by much less.
+  LidarScan moved = deskewed(scan);
+  moved.t_ns += gyroShift();
+  scans_.add(moved, keep_from);
+}
+
+LidarScan WindowCore::deskewed(const LidarScan& scan) const {
+  if (!options_.lidar_deskew || scan.time_increment_s == 0.0 || scan.ranges_m.size() < 2)
+    return scan;
+  // The body's mean rate over the sweep from the gyro (held past its newest sample: the scan may
+  // arrive before the gyro of its last beams), and its velocity from the frames.
+  const auto [t0, t1] = sweepInterval(scan);
+  Vec3 w_B = Vec3::Zero();
+  if (const auto pi = preintegrateOnGyroClock(t0, t1, bias_);
+      pi && pi->status() != factors::GyroPreintegration::Status::kNoData)
+    w_B = so3::log(pi->deltaR()) / toSeconds(t1 - t0);
+  const Vec3 v_B = last_T_W_B_.linear().transpose() * velocity_W_;
+  return deskewScan(scan, lidarMotionFromBody([w_B](double tau_s) { return so3::exp(w_B * tau_s); },
+                                              v_B, setup_.T_B_L));
+}
+
+std::optional<FrameScan> WindowCore::scanFor(Timestamp t_ns, const SE3& T_W_B) const {
+  if (!use_lidar_) return std::nullopt;
+  return scans_.scanFor(t_ns, T_W_B, velocity_W_, frames_, setup_.T_B_L,
+                        [this](Timestamp t0, Timestamp t1) { return gyroRotation(t0, t1); });
+}
+
+bool WindowCore::canReference(Timestamp t_ns) const {
+  return !use_lidar_ ||
+         scans_.choose(t_ns, [this](Timestamp t0, Timestamp t1) { return gyroRotation(t0, t1); })
+             .has_value();
+}
+
+std::vector<Keyframe*> WindowCore::windowKeyframes() {
+  std::vector<Keyframe*> out;
+  for (auto& kf : map_.keyframes) out.push_back(kf.get());
+  return out;
+}
+
+void WindowCore::recordFrame(const FrameEstimate& e, int ref_kf) {
+  FrameRecord r;
+  r.gyro = std::exchange(frame_gyro_, std::nullopt);
+  r.t_ns = e.t_ns;
+  r.T_W_B = e.T_W_B;
+  r.tracked = e.tracked;
+  r.is_keyframe = e.is_keyframe;
+  if (ref_kf >= 0) {
+    if (auto T_W_K = keyframePose(ref_kf)) {
+      r.ref_kf = ref_kf;
+      r.T_kf_B = T_W_K->inverse() * e.T_W_B;
+    }
+  }
+  frames_.add(r);
+}
+
+std::optional<KeyframeState> WindowCore::keyframeState(int kf_id) const {
+  const Keyframe* kf = map_.find(kf_id);
+  for (std::size_t k = 0; kf == nullptr && k < map_.archive.size(); ++k)
+    if (map_.archive[k]->id == kf_id) kf = map_.archive[k].get();
+  if (kf != nullptr) return KeyframeState{kf->pose(), kf->bodyPose(), kf->bias()};
+  return frames_.keptState(kf_id);
+}
+
+std::optional<SE3> WindowCore::keyframePose(int kf_id, bool body) const {
+  const auto state = keyframeState(kf_id);
+  if (!state) return std::nullopt;
+  return body ? state->body : state->vision;
+}
+
+FrameEstimate WindowCore::processFrame(const VisualFrame& frame_in) {
+  // A failed frontend frame counts as a frame without any track.
+  VisualFrame blind;
+  if (!frame_in.frontend_ok) blind.t_ns = frame_in.t_ns;
+  const VisualFrame& frame = frame_in.frontend_ok ? frame_in : blind;
+  const auto t_start = std::chrono::steady_clock::now();
+  FrameEstimate e;
+  e.t_ns = frame.t_ns;
+  // The tracks followed between keyframes: the newest keyframe's and the landmarks (or the
+  // initialisation reference's); the frontend's other tracks are only looked at for keyframes.
+  std::unordered_set<TrackId> followed;
+  if (initialized_ && !map_.empty()) {
+    for (const auto& [id, o] : map_.keyframes.back()->observations) followed.insert(id);
+    for (const auto& [id, lm] : map_.landmarks) followed.insert(id);
+  } else if (reference_) {
+    for (const auto& [id, o] : reference_->obs) followed.insert(id);
+  }
+  std::unordered_map<TrackId, TrackObservation> obs;
+  if (frame.frontend_ok)
+    for (const auto& o : frame.observations)
+      if (!have_last_ || followed.count(o.track_id)) obs[o.track_id] = o;
+  ++stats_.frames;
+
+  if (!have_last_) {
+    e.T_W_B = SE3::Identity();  // W = B at the first frame
+    e.tracked = true;
+    e.status = "initializing";
+    startReference(frame, e.T_W_B);
+    have_last_ = true;
+    last_t_ = frame.t_ns;
+    last_T_W_B_ = e.T_W_B;
+    last_obs_ = std::move(obs);
+    recordFrame(e, -1);
+    ++stats_.frames_tracked;
+    frames_.addBias(e.t_ns, bias_);
+    e.estimator_ms = msSince(t_start);
+    return e;
+  }
+  if (frame.t_ns <= last_t_) {  // out of order: hold
+    e.T_W_B = last_T_W_B_;
+    e.status = "out_of_order";
+    recordFrame(e, -1);
+    return e;
+  }
+
+  const Prediction pred = predict(frame.t_ns);
+  const bool standstill = still(frame, obs, pred);
+
+  // The first moving frame after still ones closes the standstill's zero-rate update.
+  if (!standstill && still_bias_.inStreak()) endStandstill(frame.t_ns);
+  if (!standstill)
+    still_since_.reset();
+  else if (!still_since_)
+    still_since_ = frame.t_ns;
+  const int ref_kf = standstill      ? processStill(frame, pred, obs, e)
+                     : !initialized_ ? processBeforeInit(frame, pred, e)
+                                     : processTracked(frame, pred, obs, e);
+
+  if (!allFinite(e.T_W_B)) {  // never a NaN pose
+    e.T_W_B = last_T_W_B_;
+    e.tracked = false;
+    e.status = "non_finite";
+  }
+  if (!map_.empty()) bias_ = map_.keyframes.back()->bias();
+  e.gyro_bias = bias_;
+  if (initialized_ && last_solve_.lidar_factors > 0) lidar_scale_ = true;
+  e.scale_source_lidar = initialized_ && lidar_scale_ ? 1.0 : 0.0;
+  if (e.tracked) ++stats_.frames_tracked;
+  if (initialized_) {
+    if (lidar_scale_)
+      ++stats_.lidar_scale_frames;
+    else
+      ++stats_.ground_scale_frames;
+  }
+  last_t_ = frame.t_ns;
+  last_T_W_B_ = e.T_W_B;
+  last_obs_ = std::move(obs);
+  recordFrame(e, ref_kf);
+  frames_.addBias(e.t_ns, bias_);
+  trimGyro();
+  e.estimator_ms = msSince(t_start);
+  return e;
+}
+
+int WindowCore::processTracked(const VisualFrame& frame, const Prediction& pred,
+                               std::unordered_map<TrackId, TrackObservation>& obs,
+                               FrameEstimate& e) {
+  int ref_kf = -1;
+  // Shortly after a standstill, the frames' sightings of the still frame's tracks are kept
+  // for a restart from there.
+  if (still_reference_) {
+    if (toSeconds(frame.t_ns - still_reference_->t_ns) > kStillRestartS) {
+      still_reference_.reset();
+    } else {
+      still_reference_->keepSightings(static_cast<int>(frames_.size()), frame);
+    }
+  }
+  std::vector<TrackId> ids;
+  std::size_t landmarks_seen = 0;
+  const auto ref = refineAgainstMap(obs, pred, &ids, &landmarks_seen);
+  if (ref) {
+    lost_frames_ = 0;
+    e.T_W_B = ref->T_W_B;
+    e.tracked = true;
+    const Vec3 v = (ref->T_W_B.translation() - last_T_W_B_.translation()) / pred.dt;
+    velocity_W_ = 0.5 * velocity_W_ + 0.5 * v;
+    std::unordered_set<TrackId> outliers;
+    for (std::size_t i = 0; i < ids.size(); ++i)
+      if (!ref->inlier[i]) {
+        obs.erase(ids[i]);
+        outliers.insert(ids[i]);
+      }
+    KeyframeContext context;
+    context.has_scan = use_lidar_ && scans_.at(frame.t_ns) != nullptr;
+    context.scan_expected_after = use_lidar_ && scans_.expectedAfter(frame.t_ns, last_t_);
+    if (isKeyframe(frame, e.T_W_B, *map_.keyframes.back(), setup_.T_B_C, context, options_)) {
+      std::vector<TrackObservation> inlier_obs;
+      inlier_obs.reserve(frame.observations.size());
+      for (const auto& o : frame.observations)
+        if (!outliers.count(o.track_id)) inlier_obs.push_back(o);
+      Keyframe* kf = addKeyframe(frame.t_ns, e.T_W_B, bias_, inlier_obs, &obs);
+      triangulateNewLandmarks(map_, *kf, setup_.T_B_C, options_);
+      associateLidar();
+      solveWindow();
+      if (rescaleToLidar() || rescaleToGround()) {
+        associateLidar();
+        solveWindow();
+      }
+      marginalize();
+      e.T_W_B = map_.keyframes.back()->pose();
+      e.is_keyframe = true;
+    }
+    ref_kf = map_.keyframes.back()->id;
+    if (!e.is_keyframe) carryGyroRotation(*map_.keyframes.back(), e);
+  } else {
+    e.T_W_B = pred.T_W_B;
+    e.tracked = false;
+    e.status = landmarks_seen < static_cast<std::size_t>(options_.min_landmark_observations)
+                   ? "too_few_landmarks"
+                   : "refinement_failed";
+    velocity_W_ *= std::pow(options_.velocity_decay_per_s, pred.dt);
+    if (lost_frames_++ == 0) ++stats_.tracking_losses;
+    ref_kf = map_.keyframes.back()->id;
+    const bool after_still =
+        still_reference_ && toSeconds(frame.t_ns - still_reference_->t_ns) <= kStillRestartS;
+    if (after_still) {
+      // The tracks crept while the robot stood (each still frame's sub-pixel error adds up
+      // along a track) and no longer fit the window's landmarks. The robot was still at the
+      // last still frame, so its pose is known: a new segment starts there, not at a guess.
+      note(
+          "tracks no longer fit the window after a standstill: restarted from the last still "
+          "frame");
+      resetWindow();
+      reference_ = std::move(still_reference_);
+      still_reference_.reset();
+      ref_kf = -1;
+    } else if (lost_frames_ >= options_.reinit_after_lost_frames) {
+      resetWindow();
+      startReference(frame, pred.T_W_B);
+      ref_kf = -1;
+    }
+  }
+  return ref_kf;
+}
+
+std::optional<PoseRefinement> WindowCore::refineAgainstMap(
+    const std::unordered_map<TrackId, TrackObservation>& obs, const Prediction& pred,
+    std::vector<TrackId>* ids, std::size_t* landmarks_seen) const {
+  std::vector<Vec3> points_W, bearings_C;
+  ids->clear();
+  for (const auto& [id, o] : obs) {
+    if (auto p = map_.pointW(id, setup_.T_B_C)) {
+      points_W.push_back(*p);
+      bearings_C.push_back(o.bearing_C);
+      ids->push_back(id);
+    }
+  }
+  *landmarks_seen = points_W.size();
+  if (static_cast<int>(points_W.size()) < options_.min_landmark_observations) return std::nullopt;
+  auto ref = refinePose(
+      points_W, bearings_C, pred.T_W_B,
+      pred.rotation_prior ? std::optional<Mat3>(pred.T_W_B.linear()) : std::nullopt, pred.rot_sigma,
+      model_, options_.motion_only_iterations, options_.outlier_angle_deg * kDegToRad);
+  // Enough landmarks fit, and enough of those seen (tracks that crept far during a standstill
+  // leave 5-10 % that fit by chance; a good frame fits 60-95 % of them, the first frames after a
+  // stop on the simulated rows 22-45 %).
+  if (!ref || ref->num_inliers < options_.min_landmark_observations ||
+      ref->num_inliers < options_.min_inlier_fraction * static_cast<double>(points_W.size()))
+    return std::nullopt;
+  return ref;
+}
+
+Keyframe* WindowCore::addKeyframe(Timestamp t_ns, const SE3& T_W_B, const Vec3& bias,
+                                  const std::vector<TrackObservation>& candidates,
+                                  const std::unordered_map<TrackId, TrackObservation>* keep) {
+  const auto scan = scanFor(t_ns, T_W_B);
+  const auto near_beams = lidar_.candidates(candidates, scan);
+  std::unordered_set<TrackId> keep_ids, near_ids;
+  if (keep != nullptr)
+    for (const auto& [id, o] : *keep) keep_ids.insert(id);
+  for (const auto& c : near_beams) near_ids.insert(c.track_id);
+  const std::vector<TrackObservation> observations =
+      keep == nullptr && near_ids.empty() ? candidates
+                                          : selectSpread(candidates, keep_ids, near_ids, options_);
+  auto kf = std::make_unique<Keyframe>(scan ? scan->T_B_L : setup_.T_B_L);
+  kf->id = next_kf_id_++;
+  kf->t_ns = t_ns;
+  kf->setPose(T_W_B);
+  kf->setBias(bias);
+  if (model_.rolling_shutter_s > 0.0) {
+    // The body's motion through the readout, from the gyro's rate just before the keyframe (the
+    // samples of the readout itself may not have come yet) and the frames' velocity.
+    const Timestamp span = fromSeconds(std::max(model_.rolling_shutter_s, 0.02));
+    if (const auto pi = preintegrate(t_ns - span, t_ns, bias);
+        pi && pi->status() != factors::GyroPreintegration::Status::kNoData)
+      kf->readout_rate_B = so3::log(pi->deltaR()) / toSeconds(span);
+    kf->readout_velocity_B = T_W_B.linear().transpose() * velocity_W_;
+  }
+  kf->segment = segment_;
+  for (const auto& o : observations) {
+    TrackObservation& kept = kf->observations[o.track_id] = o;
+    if (model_.bearing_sigma_from_camera) kept.px_per_rad = pixelsPerRadian(o.bearing_C);
+  }
+  for (const auto& c : near_beams)
+    if (kf->observations.count(c.track_id)) kf->lidar_candidates.push_back(c);
+  if (!map_.empty() && map_.keyframes.back()->segment == segment_) {
+    const Keyframe& prev = *map_.keyframes.back();
+    if (auto pi = preintegrate(prev.t_ns, t_ns, prev.bias()))
+      kf->preint_from_prev = std::make_shared<factors::GyroPreintegration>(std::move(*pi));
+  }
+  if (scan) kf->scan = *scan->scan;
+  frames_.addKeyframeTime(kf->id, t_ns);
+  ++stats_.keyframes;
+  map_.keyframes.push_back(std::move(kf));
+  return map_.keyframes.back().get();
+}
+
+Mat2 WindowCore::pixelsPerRadian(const Vec3& bearing_C) const {
+  Eigen::Matrix<double, 2, 3> J;
+  if (!camera::project(setup_.camera, bearing_C, &J) || !J.allFinite()) return Mat2::Zero();
+  const Mat2 J_t = J * factors::BearingFactor::tangentBasis(bearing_C).transpose();
+  // A Jacobian that has lost its rank (the model's edge) says nothing usable.
+  return std::abs(J_t.determinant()) > 1e-6 * model_.focal_px * model_.focal_px ? J_t
+                                                                                : Mat2::Zero();
+}
+
+void WindowCore::associateLidar() {
+  if (!use_lidar_) return;
+  for (auto& k : map_.keyframes) lidar_.associate(*k, map_, true);
+}
+
+bool WindowCore::rescaleToLidar() {
+  if (!use_lidar_ || options_.lidar_rescale_ratio <= 0.0 || map_.keyframes.size() < 2) return false;
+  const auto ratio = lidar_.scaleRatio(map_);
+  if (!ratio || !(*ratio > 0.0)) return false;
+  if (std::abs(*ratio - 1.0) <= options_.lidar_rescale_ratio) {
+    scale_known_ = true;  // the LiDAR agrees with the window's scale
+    return false;
+  }
+  rescaleBy(1.0 / *ratio);
+  note("the LiDAR's ranges agreed on another scale than the window's: window rescaled to them");
+  return true;
+}
+
+bool WindowCore::rescaleToGround() {
+  // At least this many keyframes' planes, more than half within this fraction of their median;
+  // and a rescale within these bounds (a plane at a near-zero height is no scale).
+  constexpr int kMinKeyframes = 2;
+  constexpr double kAgreement = 0.1;
+  constexpr double kMinFactor = 0.01, kMaxFactor = 100.0;
+  const double h = heightCorrectedModel().camera_height_m;
+  if (scale_known_ || lidar_scale_ || last_solve_.lidar_factors > 0 || !(h > 0.0)) return false;
+  const auto height = agreedGroundHeight(ground_heights_, kMinKeyframes, kAgreement);
+  if (!height) return false;
+  const double factor = h / *height;
+  if (!(factor >= kMinFactor && factor <= kMaxFactor)) return false;
+  rescaleBy(factor);
+  note("the window started without a scale: rescaled to the ground plane's camera height");
+  return true;
+}
+
+void WindowCore::rescaleBy(double s) {
+  rescaleWindow(s, map_, gauge_, frames_, {last_T_W_B_, velocity_W_});
+  scale_known_ = true;
+  // A restart from the last still frame would start at its pose of the old scale.
+  still_reference_.reset();
+}
+
+void WindowCore::solveWindow() {
+  const auto t0 = std::chrono::steady_clock::now();
+  refreshGyroFactors();
+  auto kfs = windowKeyframes();
+  seedTerrain(kfs, model_);
+  auto factors = buildFactors(kfs, map_.landmarks, model_, gauge_, &ledger_, map_.time_offset_s,
+                              map_.camera_height_offset_m);
+  last_solve_ = {};
+  last_solve_.keyframes = static_cast<int>(kfs.size());
+  for (const auto& f : factors) last_solve_.lidar_factors += f.kind == FactorKind::kLidar;
+  std::unordered_set<TrackId> active;
+  for (const auto& f : factors)
+    if (f.kind == FactorKind::kBearing) active.insert(f.track);
+  last_solve_.landmarks = static_cast<int>(active.size());
+  SolveOptions so;
+  so.linear_solver = options_.linear_solver;
+  so.max_iterations = options_.max_iterations;
+  so.max_time_s = options_.max_solver_time_s;
+  so.time_offset = {map_.time_offset_s, options_.time_offset_max_s};
+  so.camera_height_offset = {map_.camera_height_offset_m,
+                             5.0 * model_.camera_height_offset_sigma_m};
+  const SolveSummary s = solveFactors(std::move(factors), kfs, map_.landmarks, model_, so);
+  last_solve_.residual_blocks = s.residual_blocks;
+  last_solve_.iterations = s.iterations;
+  removeOutliers(map_, model_, options_);
+  labelGround();
+  repropagateGyro(kfs);
+  last_solve_.solve_ms = msSince(t0);
+}
+
+void WindowCore::labelGround() {
+  ground_heights_ =
+      labelGroundLandmarks(map_.landmarks, heightCorrectedModel(), options_, label_ground_options_);
+}
+
+WindowModel WindowCore::heightCorrectedModel() const {
+  WindowModel model = model_;
+  if (estimatesCameraHeight(model_)) {
+    model.camera_height_m += map_.camera_height_offset_m[0];
+    model.camera_height_offset_sigma_m = 0.0;
+  }
+  return model;
+}
+
+void WindowCore::marginalize() {
+  while (static_cast<int>(map_.keyframes.size()) > options_.window_size) {
+    const auto t0 = std::chrono::steady_clock::now();
+    Keyframe* oldest = map_.keyframes.front().get();
+    const MarginalizationPlan plan = planMarginalization(map_, setup_.T_B_C, options_);
+    auto info = marginalizeOldest(map_, model_, gauge_, plan, &ledger_);
+    // The landmarks' last points seed the full refinement (kept only for it: they grow).
+    if (options_.refine == RefineMode::kFull) map_.rememberPoints(setup_.T_B_C);
+    frames_.keepPoses(*oldest);
+    countLidar(*oldest, stats_);
+    const int oldest_id = oldest->id;
+    if (options_.refine == RefineMode::kFull)
+      map_.archive.push_back(std::move(map_.keyframes.front()));
+    map_.keyframes.pop_front();
+    ledger_.forgetBefore(map_.keyframes.front()->id);
+    reanchorLandmarks(map_, oldest_id, plan);
+    if (info) {
+      gauge_.marginalization = info;
+      gauge_.kf_id = -1;
+    } else {  // fall back to a pose prior on the new oldest keyframe
+      gauge_.marginalization.reset();
+      gauge_.kf_id = map_.keyframes.front()->id;
+      gauge_.T_W_B = map_.keyframes.front()->pose();
+      gauge_.b_g = map_.keyframes.front()->bias();
+      note("marginalisation failed once: gauge fixed by a pose prior instead");
+    }
+    last_solve_.marginalize_ms += msSince(t0);
+  }
+  settleFrames();
+}
+
+void WindowCore::settleFrames() {
+  // A keyframe that left the window keeps its pose, unless the full refinement moves it at the
+  // end; frames are settled up to the window's oldest keyframe and the frames a restart may
+  // still place (from its reference on), and no nearer than kSettleAfterS (scans look back).
+  if (options_.refine == RefineMode::kFull || map_.empty()) return;
+  Timestamp before = std::min(map_.keyframes.front()->t_ns, last_t_ - fromSeconds(kSettleAfterS));
+  if (reference_) before = std::min(before, reference_->t_ns);
+  if (still_reference_) before = std::min(before, still_reference_->t_ns);
+  frames_.settle(before, [this](int id) { return keyframeState(id); });
+}
+
+void WindowCore::resetWindow() {
+  if (!map_.empty()) carried_bias_ = {map_.keyframes.back()->t_ns, map_.keyframes.back()->bias()};
+  if (options_.refine == RefineMode::kFull) map_.rememberPoints(setup_.T_B_C);
+  // Counted before any keyframe moves out: the residuals look up the landmarks' anchors.
+  for (const auto& kf : map_.keyframes) countLidar(*kf, stats_);
+  for (auto& kf : map_.keyframes) {
+    frames_.keepPoses(*kf);
+    if (options_.refine == RefineMode::kFull) map_.archive.push_back(std::move(kf));
+  }
+  map_.keyframes.clear();
+  map_.landmarks.clear();
+  gauge_ = {};
+  ledger_ = {};
+  initialized_ = false;
+  lidar_scale_ = false;
+  ++segment_;
+  reference_.reset();
+}
+
+void WindowCore::refineAll() {
+  std::vector<Keyframe*> kfs;
+  for (auto& kf : map_.archive) kfs.push_back(kf.get());
+  for (auto& kf : map_.keyframes) kfs.push_back(kf.get());
+  std::sort(kfs.begin(), kfs.end(),
+            [](const Keyframe* a, const Keyframe* b) { return a->id < b->id; });
+  if (kfs.size() < 2) return;
+  map_.rememberPoints(setup_.T_B_C);
+  // Each segment's first keyframe keeps the bias prior it started with, at its pose now.
+  std::vector<WindowGauge> gauges = segment_gauges_;
+  for (WindowGauge& g : gauges)
+    if (auto T_W_B = keyframePose(g.kf_id)) g.T_W_B = *T_W_B;
+  // The camera height as corrected online, held.
+  stats_.refine = refineKeyframes(kfs, map_.last_point_W, heightCorrectedModel(), gauges, options_,
+                                  label_ground_options_, map_.time_offset_s);
+  if (!stats_.refine->usable) note("full refinement failed: the online keyframe poses are kept");
+  for (const Keyframe* kf : kfs) frames_.keepPoses(*kf);
+}
+
+void WindowCore::finish() {
+  if (finished_) return;
+  finished_ = true;
+  if (options_.refine == RefineMode::kFull) refineAll();
+  for (const auto& kf : map_.keyframes) frames_.keepPoses(*kf);
+}
+
+Trajectory WindowCore::trajectory() const {
+  return ontoGyroClock(frames_.trajectory([this](int id) { return keyframeState(id); }));
+}
+
+Trajectory WindowCore::keyframes() const {
+  return ontoGyroClock(frames_.keyframes([this](int id) { return keyframeState(id); }));
+}
+
+void WindowCore::countLidar(const Keyframe& kf, EstimatorStats& stats) const {
+  stats.lidar_keyframes += kf.lidar.empty() ? 0 : 1;
+  stats.lidar_ranges += static_cast<int>(kf.lidar.size());
+  if (kf.lidar.empty() && kf.lidar_rejected.empty()) return;
+  if (!stats.lidar_residuals) {
+    stats.lidar_residuals.emplace();
+    stats.lidar_residuals->range_sigma_m = model_.lidar_range_sigma_m;
+  }
+  LidarResidualStats& r = *stats.lidar_residuals;
+  // The keyframe's mean turn rate since the previous keyframe (the gyro's, bias removed).
+  bool turning = false;
+  if (const auto& pre = kf.preint_from_prev; pre && pre->dtSeconds() > 0.0) {
+    turning = so3::angle(pre->deltaR(kf.bias())) / pre->dtSeconds() >
+              LidarResidualStats::kTurningDegS * M_PI / 180.0;
+  }
+  const int rejected = static_cast<int>(kf.lidar_rejected.size());
+  r.rejected += rejected;
+  if (turning) r.turning_rejected += rejected;
+  for (const LidarAssociation& a : kf.lidar) {
+    if (!a.ground_up_L.isZero()) continue;  // a ground-plane height, not a range
+    const auto p_W = map_.pointW(a.track_id, setup_.T_B_C);
+    if (!p_W) continue;
+    const auto residual = lidarResidualM(a, *p_W, kf);
+    if (!residual || !std::isfinite(*residual)) continue;
+    const double sq = *residual * *residual;
+    ++r.count;
+    r.sum_sq_m2 += sq;
+    if (turning) {
+      ++r.turning_count;
+      r.turning_sum_sq_m2 += sq;
+    }
+  }
+}
+
+EstimatorStats WindowCore::stats() const {
+  EstimatorStats s = stats_;  // plus the keyframes still in the window
+  for (const auto& kf : map_.keyframes) countLidar(*kf, s);
+  if (estimatesTimeOffset(model_)) s.time_offset_s = map_.time_offset_s[0];
+  if (estimatesCameraHeight(model_)) s.camera_height_offset_m = map_.camera_height_offset_m[0];
+  return s;
+}
+
+}  // namespace ovo::estimator

@@ -1,0 +1,426 @@
+#include "estimator/window/factors.hpp"
+
+#include <ceres/loss_function.h>
+
+#include <algorithm>
+#include <cmath>
+
+#include "common/so3.hpp"
+#include "factors/bearing_factor.hpp"
+#include "factors/bearing_step_factor.hpp"
+#include "factors/bias_prior_factor.hpp"
+#include "factors/ground_height_factor.hpp"
+#include "factors/lidar_range_factor.hpp"
+#include "factors/pose_prior_factor.hpp"
+#include "factors/rotation_tie_factor.hpp"
+#include "factors/scalar_prior_factor.hpp"
+#include "factors/terrain_plane_factor.hpp"
+#include "factors/time_offset_factor.hpp"
+
+namespace ovo::estimator {
+namespace {
+
+/// The orientation block a keyframe's gyro factors use.
+double* gyroRotation(Keyframe& kf, const WindowModel& model) {
+  return tiedRotations(model) ? kf.q_W_G : kf.q_W_B;
+}
+
+}  // namespace
+
+double anchorSigmaPx(const Keyframe& anchor, const TrackObservation& o, const WindowModel& model) {
+  const auto a = anchor.observations.find(o.track_id);
+  const int frames = a == anchor.observations.end() ? 0 : std::max(0, o.age - a->second.age);
+  return sightingSigmaPx(model.pixel_sigma_px * model.pixel_sigma_px, frames, model);
+}
+
+double sightingSigmaPx(double white_px2, double frames, const WindowModel& model) {
+  return std::sqrt(white_px2 + model.track_creep_px * model.track_creep_px * frames);
+}
+
+Mat2 sightingSqrtInformation(const TrackObservation& o, double sigma_px, const WindowModel& model) {
+  if (model.bearing_sigma_from_camera && !o.px_per_rad.isZero()) return o.px_per_rad / sigma_px;
+  return Mat2::Identity() * (model.focal_px / sigma_px);
+}
+
+bool FactorLedger::record(const FactorKey& key, Fate fate) {
+  if (!fates_.emplace(key, fate).second) {
+    ++refused_;
+    return false;
+  }
+  ++recorded_[{key.kind, fate}];
+  return true;
+}
+
+int FactorLedger::recorded(FactorKind kind, Fate fate) const {
+  const auto it = recorded_.find({kind, fate});
+  return it == recorded_.end() ? 0 : it->second;
+}
+
+std::optional<FactorLedger::Fate> FactorLedger::fate(const FactorKey& key) const {
+  const auto it = fates_.find(key);
+  if (it == fates_.end()) return std::nullopt;
+  return it->second;
+}
+
+void FactorLedger::forgetBefore(int oldest_kf_id) {
+  std::erase_if(fates_, [&](const auto& entry) { return entry.first.kf_id < oldest_kf_id; });
+}
+
+std::unordered_map<int, Keyframe*> keyframesById(const std::vector<Keyframe*>& keyframes) {
+  std::unordered_map<int, Keyframe*> out;
+  for (Keyframe* kf : keyframes) out[kf->id] = kf;
+  return out;
+}
+
+bool tiedRotations(const WindowModel& model) {
+  return model.use_gyro && model.vision_rotation_sigma_rad > 0.0;
+}
+
+WindowModel makeWindowModel(const SensorSetup& setup, const WindowOptions& options) {
+  WindowModel model;
+  const double pixel_sigma = options.pixel_sigma > 0.0 ? options.pixel_sigma : setup.pixel_sigma;
+  model.T_B_C = setup.T_B_C;
+  model.rolling_shutter_s = options.rolling_shutter ? setup.rolling_shutter_s : 0.0;
+  model.image_rows = camera::height(setup.camera);
+  model.focal_px = camera::focalPx(setup.camera);
+  model.pixel_sigma_px = pixel_sigma;
+  model.bearing_sigma_rad = pixel_sigma / model.focal_px;
+  model.bearing_sigma_from_camera = options.bearing_sigma_from_camera;
+  model.bearing_huber = options.bearing_huber_sigmas;
+  model.track_creep_px = options.track_creep_px;
+  model.bearing_steps = useBearingSteps(options.bearing_steps, options);
+  model.track_white_px = options.track_white_px;
+  model.lidar_ground_sigma_m = options.lidar_ground_sigma_m;
+  model.lidar_range_sigma_m =
+      options.lidar_range_sigma_m > 0.0 ? options.lidar_range_sigma_m : setup.lidar_range_sigma_m;
+  model.lidar_sigma_m = std::hypot(model.lidar_range_sigma_m, options.lidar_association_sigma_m);
+  model.lidar_huber = options.lidar_huber_sigmas;
+  model.lidar_cauchy = options.lidar_loss == RobustLoss::kCauchy;
+  model.bias_random_walk = options.gyro_bias_random_walk > 0.0 ? options.gyro_bias_random_walk
+                                                               : setup.gyro_bias_random_walk;
+  model.bias_prior_sigma_radps = options.gyro_bias_prior_sigma_radps;
+  model.vision_rotation_sigma_rad = options.vision_rotation_sigma_rad;
+  model.gauge_sigma_position_m = options.gauge_sigma_position_m;
+  model.gauge_sigma_rotation_rad = options.gauge_sigma_yaw_rad;
+  model.max_rho = 1.0 / (0.5 * options.landmark_min_depth_m);
+  model.use_gyro = options.use_gyro && setup.has_gyro;
+  model.time_offset_sigma_s = options.estimate_time_offset ? options.time_offset_sigma_s : 0.0;
+  if (options.use_ground_height && setup.camera_height_m && *setup.camera_height_m > 0.0) {
+    model.camera_height_m = *setup.camera_height_m;
+    model.ground_sigma_m = options.ground_height_sigma_m;
+    if (options.estimate_camera_height && options.use_lidar && setup.has_lidar)
+      model.camera_height_offset_sigma_m = options.camera_height_sigma_m;
+    model.terrain_planes = options.terrain_planes;
+    model.terrain_slope_walk = options.terrain_slope_walk;
+    model.terrain_height_walk = options.terrain_height_walk;
+  }
+  return model;
+}
+
+SE3 sightingExtrinsics(const Keyframe& kf, const TrackObservation& o, const WindowModel& model) {
+  if (!(model.rolling_shutter_s > 0.0) || !(model.image_rows > 0.0)) return model.T_B_C;
+  const double dt = model.rolling_shutter_s * std::clamp(o.px.y() / model.image_rows, 0.0, 1.0);
+  SE3 T_B0_B = SE3::Identity();  // the body at the row's time, in the keyframe's body frame
+  T_B0_B.linear() = so3::exp(kf.readout_rate_B * dt);
+  T_B0_B.translation() = kf.readout_velocity_B * dt;
+  return T_B0_B * model.T_B_C;
+}
+
+bool usesTerrain(const WindowModel& model) {
+  return model.terrain_planes && model.camera_height_m > 0.0;
+}
+
+void seedTerrain(const std::vector<Keyframe*>& keyframes, const WindowModel& model) {
+  if (!usesTerrain(model)) return;
+  const Keyframe* prev = nullptr;
+  for (Keyframe* kf : keyframes) {
+    if (!kf->terrain_set) {
+      if (prev != nullptr)
+        std::copy_n(prev->terrain, 3, kf->terrain);
+      else
+        factors::terrainBelow(kf->pose(), model.T_B_C, model.camera_height_m, kf->terrain);
+      kf->terrain_set = true;
+    }
+    prev = kf;
+  }
+}
+
+std::vector<FactorSpec> buildFactors(const std::vector<Keyframe*>& keyframes,
+                                     std::unordered_map<TrackId, Landmark>& landmarks,
+                                     const WindowModel& model, const WindowGauge& gauge,
+                                     const FactorLedger* ledger, double* time_offset_s,
+                                     double* camera_height_offset_m) {
+  std::vector<FactorSpec> out;
+  const auto kf_of = keyframesById(keyframes);
+
+  // Bearing and LiDAR factors of the landmarks.
+  for (auto& [id, lm] : landmarks) {
+    auto anchor_it = kf_of.find(lm.anchor_kf);
+    // (a point at infinity, rho 0, still gives its bearings: they hold the rotations)
+    if (anchor_it == kf_of.end() || !(lm.rho[0] >= 0.0)) continue;
+    Keyframe* anchor = anchor_it->second;
+    // The anchor's camera pose in its body when it took the landmark's first sighting (a rolling
+    // shutter's row).
+    const auto anchor_obs = anchor->observations.find(id);
+    const SE3 T_B_Ca = anchor_obs != anchor->observations.end()
+                           ? sightingExtrinsics(*anchor, anchor_obs->second, model)
+                           : model.T_B_C;
+    // With bearing steps each sighting after the first is tied to the previous kept one.
+    Keyframe* prev = nullptr;
+    for (Keyframe* kf : keyframes) {
+      if (kf == anchor) continue;
+      auto obs = kf->observations.find(id);
+      if (obs == kf->observations.end()) continue;
+      const auto u = factors::predictBearing(lm.bearing_anchor_C, model.T_B_C.linear(),
+                                             model.T_B_C.translation(), anchor->q_W_B,
+                                             anchor->p_W_B, kf->q_W_B, kf->p_W_B, lm.rho[0], false);
+      if (!u || u->u.dot(obs->second.bearing_C) < std::cos(0.2)) continue;  // gross: > 11 deg
+      FactorSpec f;
+      f.kind = FactorKind::kBearing;
+      const SE3 T_B_Cj = sightingExtrinsics(*kf, obs->second, model);
+      if (model.bearing_steps && prev != nullptr) {
+        const TrackObservation& oi = prev->observations.at(id);
+        const double frames = std::max(0, obs->second.age - oi.age);
+        // The step's two sightings each carry their own noise.
+        const double sigma_px =
+            sightingSigmaPx(2.0 * model.track_white_px * model.track_white_px, frames, model);
+        f.cost = std::make_unique<factors::BearingStepFactor>(
+            lm.bearing_anchor_C, oi.bearing_C, obs->second.bearing_C, T_B_Ca,
+            sightingExtrinsics(*prev, oi, model), T_B_Cj,
+            sightingSqrtInformation(obs->second, sigma_px, model));
+        f.blocks = {anchor->q_W_B, anchor->p_W_B, prev->q_W_B, prev->p_W_B,
+                    kf->q_W_B,     kf->p_W_B,     lm.rho};
+      } else {
+        // Tracks creep (a random walk of the sub-pixel position per frame): the error between the
+        // anchor's and this observation grows with the frames between them.
+        const double sigma_px = anchorSigmaPx(*anchor, obs->second, model);
+        f.cost = std::make_unique<factors::BearingFactor>(
+            lm.bearing_anchor_C, obs->second.bearing_C, T_B_Ca, T_B_Cj,
+            sightingSqrtInformation(obs->second, sigma_px, model));
+        f.blocks = {anchor->q_W_B, anchor->p_W_B, kf->q_W_B, kf->p_W_B, lm.rho};
+      }
+      f.loss = std::make_unique<ceres::HuberLoss>(model.bearing_huber);
+      f.track = id;
+      f.kf_id = kf->id;
+      out.push_back(std::move(f));
+      prev = kf;
+    }
+  }
+  if (usesTerrain(model)) {
+    for (auto& [id, lm] : landmarks) {
+      auto a = kf_of.find(lm.anchor_kf);
+      if (!lm.on_ground || a == kf_of.end() || !a->second->terrain_set || !(lm.rho[0] > 0.0))
+        continue;
+      FactorSpec f;
+      f.kind = FactorKind::kTerrain;
+      f.cost = std::make_unique<factors::TerrainPointFactor>(lm.bearing_anchor_C, model.T_B_C,
+                                                             model.ground_sigma_m);
+      f.loss = std::make_unique<ceres::HuberLoss>(model.ground_huber);
+      f.blocks = {a->second->q_W_B, a->second->p_W_B, lm.rho, a->second->terrain};
+      f.track = id;
+      f.kf_id = lm.anchor_kf;
+      out.push_back(std::move(f));
+    }
+    for (std::size_t k = 1; k < keyframes.size(); ++k) {
+      Keyframe* i = keyframes[k - 1];
+      Keyframe* j = keyframes[k];
+      if (!i->terrain_set || !j->terrain_set) continue;
+      const Vec3 ci = i->pose() * model.T_B_C.translation();
+      const Vec3 cj = j->pose() * model.T_B_C.translation();
+      FactorSpec w;
+      w.kind = FactorKind::kTerrain;
+      w.cost = std::make_unique<factors::TerrainWalkFactor>(
+          0.5 * (ci + cj), (cj - ci).norm(), model.terrain_slope_walk, model.terrain_height_walk);
+      w.blocks = {i->terrain, j->terrain};
+      w.kf_id = j->id;
+      out.push_back(std::move(w));
+    }
+  }
+  const bool with_height = camera_height_offset_m != nullptr && estimatesCameraHeight(model);
+  bool height_used = false;
+  if (model.camera_height_m > 0.0) {
+    for (auto& [id, lm] : landmarks) {
+      if (!lm.on_ground || !kf_of.count(lm.anchor_kf) || !(lm.rho[0] > 0.0)) continue;
+      FactorSpec f;
+      f.kind = FactorKind::kGround;
+      if (with_height) {
+        f.cost = std::make_unique<factors::GroundHeightCorrectedFactor>(
+            lm.bearing_anchor_C, lm.ground_up_C, model.camera_height_m, model.ground_sigma_m);
+        f.blocks = {lm.rho, camera_height_offset_m};
+        height_used = true;
+      } else {
+        f.cost = std::make_unique<factors::GroundHeightFactor>(
+            lm.bearing_anchor_C, lm.ground_up_C, model.camera_height_m, model.ground_sigma_m);
+        f.blocks = {lm.rho};
+      }
+      f.loss = std::make_unique<ceres::HuberLoss>(model.ground_huber);
+      f.track = id;
+      f.kf_id = lm.anchor_kf;
+      out.push_back(std::move(f));
+    }
+  }
+  for (Keyframe* kf : keyframes) {
+    for (const LidarAssociation& a : kf->lidar) {
+      auto lm_it = landmarks.find(a.track_id);
+      if (lm_it == landmarks.end()) continue;
+      Landmark& lm = lm_it->second;
+      auto anchor_it = kf_of.find(lm.anchor_kf);
+      if (anchor_it == kf_of.end() || !(lm.rho[0] > 0.0)) continue;
+      FactorSpec f;
+      f.kind = FactorKind::kLidar;
+      if (model.lidar_cauchy)
+        f.loss = std::make_unique<ceres::CauchyLoss>(model.lidar_huber);
+      else
+        f.loss = std::make_unique<ceres::HuberLoss>(model.lidar_huber);
+      const double sigma = lidarSigma(a, model);
+      if (anchor_it->second == kf) {
+        f.cost = std::make_unique<factors::LidarRangeAnchorFactor>(
+            lm.bearing_anchor_C, a.range_m, model.T_B_C, kf->T_B_L, sigma, a.planar, a.ground_up_L);
+        f.blocks = {lm.rho};
+      } else {
+        Keyframe* anchor = anchor_it->second;
+        f.cost = std::make_unique<factors::LidarRangeFactor>(
+            lm.bearing_anchor_C, a.range_m, model.T_B_C, kf->T_B_L, sigma, a.planar, a.ground_up_L);
+        f.blocks = {anchor->q_W_B, anchor->p_W_B, kf->q_W_B, kf->p_W_B, lm.rho};
+      }
+      f.track = a.track_id;
+      f.kf_id = kf->id;
+      out.push_back(std::move(f));
+    }
+  }
+
+  // Gyro and bias factors between consecutive keyframes of one segment.
+  const bool with_offset = time_offset_s != nullptr && estimatesTimeOffset(model);
+  bool offset_used = false;
+  if (model.use_gyro) {
+    for (std::size_t k = 1; k < keyframes.size(); ++k) {
+      Keyframe* i = keyframes[k - 1];
+      Keyframe* j = keyframes[k];
+      if (i->segment != j->segment || !j->preint_from_prev) continue;
+      FactorSpec g;
+      g.kind = FactorKind::kGyro;
+      g.blocks = {gyroRotation(*i, model), gyroRotation(*j, model), i->b_g};
+      if (with_offset) {
+        // The offset the preintegration was made at: its interval starts at t_i - offset.
+        const double td_lin = toSeconds(i->t_ns - j->preint_from_prev->tStart());
+        g.cost = std::make_unique<factors::GyroTimeOffsetFactor>(j->preint_from_prev, td_lin);
+        g.blocks.push_back(time_offset_s);
+        offset_used = true;
+      } else {
+        g.cost = std::make_unique<factors::GyroFactor>(j->preint_from_prev);
+      }
+      g.kf_id = j->id;
+      out.push_back(std::move(g));
+      FactorSpec w;
+      w.kind = FactorKind::kBiasWalk;
+      w.cost = std::make_unique<factors::BiasRandomWalkFactor>(
+          model.bias_random_walk, std::max(1e-3, toSeconds(j->t_ns - i->t_ns)));
+      w.blocks = {i->b_g, j->b_g};
+      w.kf_id = j->id;
+      out.push_back(std::move(w));
+    }
+  }
+  if (tiedRotations(model)) {
+    for (Keyframe* kf : keyframes) {
+      FactorSpec t;
+      t.kind = FactorKind::kRotationTie;
+      t.cost = std::make_unique<factors::RotationTieFactor>(model.vision_rotation_sigma_rad);
+      t.blocks = {kf->q_W_B, kf->q_W_G};
+      t.kf_id = kf->id;
+      out.push_back(std::move(t));
+    }
+  }
+  if (model.use_gyro) {
+    for (Keyframe* kf : keyframes) {
+      if (!kf->zero_rate) continue;
+      FactorSpec z;
+      z.kind = FactorKind::kZeroRate;
+      z.cost = std::make_unique<factors::BiasPriorFactor>(kf->zero_rate->bias_radps,
+                                                          kf->zero_rate->sigma_radps);
+      z.blocks = {kf->b_g};
+      z.kf_id = kf->id;
+      out.push_back(std::move(z));
+    }
+  }
+
+  // Gauge.
+  if (auto it = kf_of.find(gauge.kf_id); it != kf_of.end()) {
+    Keyframe* kf = it->second;
+    FactorSpec p;
+    p.kind = FactorKind::kPosePrior;
+    p.cost = std::make_unique<factors::PosePriorFactor>(
+        gauge.T_W_B, factors::PosePriorFactor::gaugeInformation(model.gauge_sigma_position_m,
+                                                                model.gauge_sigma_rotation_rad,
+                                                                model.gauge_sigma_rotation_rad));
+    p.blocks = {kf->q_W_B, kf->p_W_B};
+    p.kf_id = kf->id;
+    out.push_back(std::move(p));
+    if (model.use_gyro) {
+      FactorSpec b;
+      b.kind = FactorKind::kBiasPrior;
+      b.cost = std::make_unique<factors::BiasPriorFactor>(
+          gauge.b_g,
+          gauge.b_g_sigma_radps > 0.0 ? gauge.b_g_sigma_radps : model.bias_prior_sigma_radps);
+      b.blocks = {kf->b_g};
+      b.kf_id = kf->id;
+      out.push_back(std::move(b));
+    }
+  }
+  // The run's scalar states, each about the rig's value, in every solve that holds the state (a
+  // factor of it, or the marginalisation prior): a plausibility bound that holds the time offset
+  // while the motion does not show it (a constant rate), and the camera height while the LiDAR
+  // sees little. They touch no keyframe: never marginalised.
+  const auto scalarPrior = [&](double* block, bool used, FactorKind kind, double sigma) {
+    const auto& kept =
+        gauge.marginalization ? gauge.marginalization->keptBlocks() : std::vector<double*>{};
+    if (!used && std::find(kept.begin(), kept.end(), block) == kept.end()) return;
+    FactorSpec p;
+    p.kind = kind;
+    p.cost = std::make_unique<factors::ScalarPriorFactor>(0.0, sigma);
+    p.blocks = {block};
+    out.push_back(std::move(p));
+  };
+  if (with_offset)
+    scalarPrior(time_offset_s, offset_used, FactorKind::kTimeOffsetPrior,
+                model.time_offset_sigma_s);
+  if (with_height)
+    scalarPrior(camera_height_offset_m, height_used, FactorKind::kCameraHeightPrior,
+                model.camera_height_offset_sigma_m);
+  if (gauge.marginalization) {
+    FactorSpec m;
+    m.kind = FactorKind::kMarginal;
+    m.cost = std::make_unique<factors::MarginalizationFactor>(gauge.marginalization);
+    m.blocks = gauge.marginalization->keptBlocks();
+    out.push_back(std::move(m));
+  }
+  if (ledger != nullptr && ledger->size() > 0)
+    std::erase_if(out, [&](const FactorSpec& f) {
+      return f.kind != FactorKind::kMarginal && ledger->fate(f.key()).has_value();
+    });
+  return out;
+}
+
+double lidarSigma(const LidarAssociation& a, const WindowModel& model) {
+  if (a.ground_up_L.isZero()) return model.lidar_sigma_m;
+  return std::hypot(model.lidar_range_sigma_m * a.ground_sin, model.lidar_ground_sigma_m);
+}
+
+std::optional<double> lidarResidualM(const LidarAssociation& a, const Vec3& p_W,
+                                     const Keyframe& kf) {
+  const SE3 T_L_W = (kf.pose() * kf.T_B_L).inverse();
+  const auto value = factors::lidarMeasuredValue(T_L_W * p_W, a.planar, a.ground_up_L);
+  if (!value) return std::nullopt;
+  return *value - a.range_m;
+}
+
+bool lidarOutlier(const LidarAssociation& a, const Vec3& p_W, const Keyframe& kf,
+                  const WindowModel& model, double gate_sigmas, double gate_fraction) {
+  const auto residual = lidarResidualM(a, p_W, kf);
+  if (!residual) return true;  // the landmark sits on the LiDAR
+  const double gate_sigma = gate_sigmas * lidarSigma(a, model);
+  const double gate =
+      a.ground_up_L.isZero() ? std::max(gate_sigma, gate_fraction * a.range_m) : gate_sigma;
+  return std::abs(*residual) > gate;
+}
+
+}  // namespace ovo::estimator

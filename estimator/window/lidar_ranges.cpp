@@ -1,0 +1,125 @@
+#include "estimator/window/lidar_ranges.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <unordered_set>
+
+#include "common/stats.hpp"
+#include "estimator/common/lidar_scale.hpp"
+
+namespace ovo::estimator {
+namespace {
+
+constexpr double kDegToRad = M_PI / 180.0;
+
+}  // namespace
+
+std::vector<LidarAssociation> WindowLidar::candidates(
+    const std::vector<TrackObservation>& observations, const std::optional<FrameScan>& scan) const {
+  std::vector<LidarAssociation> out;
+  if (!scan) return out;
+  for (const BeamMatch& m :
+       associateBeams(usableBeams(*scan), observations, options_.lidar_radius_px))
+    out.push_back({m.track_id, m.range_m});
+  return out;
+}
+
+std::vector<BeamInImage> WindowLidar::usableBeams(const FrameScan& scan) const {
+  return projectScan(*scan.scan, setup_.camera, cameraFromLidar(setup_.T_B_C, scan.T_B_L),
+                     options_.lidar_edge_step, options_.lidar_edge_neighbours);
+}
+
+std::vector<LidarRange> WindowLidar::rangesAt(const Keyframe& kf, const WindowMap& map) const {
+  std::vector<LidarRange> out;
+  const SE3 T_L_W = (kf.pose() * kf.T_B_L).inverse();
+  if (options_.lidar_interpolate) {
+    // Every landmark the keyframe sees whose point lies within a small elevation of the scan
+    // plane: the scan's range interpolated at its azimuth (no pixel-radius offset along the scan).
+    if (!kf.scan) return out;
+    const double max_tan_elevation = std::tan(options_.lidar_max_elevation_deg * kDegToRad);
+    // Ground beams (isGroundBeam) are told apart unless lidar_ground_beams is raw.
+    const double ground_height =
+        options_.lidar_ground_beams != GroundBeams::kRaw && setup_.camera_height_m
+            ? *setup_.camera_height_m
+            : 0.0;
+    const bool skip_ground = options_.lidar_ground_beams == GroundBeams::kSkip;
+    const SE3 T_C_L = cameraFromLidar(setup_.T_B_C, kf.T_B_L);
+    const SE3 T_L_C = T_C_L.inverse();
+    const Vec3 up_C = bodyUpIn(setup_.T_B_C);
+    const Vec3 up_L = bodyUpIn(kf.T_B_L);
+    for (const auto& [id, o] : kf.observations) {
+      const auto p_W = map.pointW(id, setup_.T_B_C);
+      if (!p_W) continue;
+      const Vec3 p_L = T_L_W * *p_W;
+      const double d_xy = p_L.head<2>().norm();
+      if (!(d_xy > 1e-3) || std::abs(p_L.z()) > max_tan_elevation * d_xy) continue;
+      const double phi = std::atan2(p_L.y(), p_L.x());
+      const auto r =
+          interpolateRange(*kf.scan, phi, options_.lidar_edge_step, options_.lidar_edge_neighbours);
+      if (!r) continue;
+      LidarRange range{{id, *r, true}, d_xy, *r, false};
+      const Vec3 hit_L(*r * std::cos(phi), *r * std::sin(phi), 0.0);
+      if (isGroundBeam(T_C_L * hit_L, up_C, ground_height)) {
+        if (skip_ground) continue;
+        // plane: the landmark on the ground plane through the beam end; its distance for the
+        // gate where the observed ray meets that plane.
+        const auto d =
+            groundRangeAlongRay(hit_L, up_L, T_L_C.translation(), T_L_C.rotation() * o.bearing_C);
+        if (!d) continue;
+        range = {
+            {id, up_L.dot(hit_L), false, up_L, groundIncidenceSine(hit_L, up_L)}, d_xy, *d, true};
+      }
+      out.push_back(range);
+    }
+    return out;
+  }
+  for (const LidarAssociation& c : kf.lidar_candidates) {
+    const auto p_W = map.pointW(c.track_id, setup_.T_B_C);
+    if (!p_W) continue;
+    out.push_back({c, (T_L_W * *p_W).norm(), c.range_m, false});
+  }
+  return out;
+}
+
+void WindowLidar::associate(Keyframe& kf, const WindowMap& map, bool gate_depth) const {
+  std::unordered_set<TrackId> have;
+  for (const auto& a : kf.lidar) have.insert(a.track_id);
+  for (const LidarRange& r : rangesAt(kf, map)) {
+    const TrackId id = r.association.track_id;
+    if (have.count(id) || kf.lidar_rejected.count(id)) continue;
+    if (gate_depth &&
+        std::abs(r.landmark_m - r.measured_m) > options_.lidar_depth_gate * r.measured_m)
+      continue;
+    kf.lidar.push_back(r.association);
+  }
+}
+
+std::optional<double> WindowLidar::scaleRatio(const WindowMap& map) const {
+  // Every range the window's keyframes measure to a landmark they see, gated or rejected or not:
+  // the gates are what a wrong scale defeats. Ground beams are left out (their range hangs on
+  // the plane's elevation, not on the scale alone).
+  std::vector<std::pair<double, TrackId>> ratios;
+  for (const auto& kf : map.keyframes)
+    for (const LidarRange& r : rangesAt(*kf, map))
+      if (!r.ground && r.measured_m > 0.0)
+        ratios.emplace_back(r.landmark_m / r.measured_m, r.association.track_id);
+  if (static_cast<int>(ratios.size()) < options_.lidar_rescale_min_ranges) return std::nullopt;
+  std::vector<double> values;
+  for (const auto& [ratio, id] : ratios) values.push_back(ratio);
+  const double mid = upperMedian(values);
+  // The ranges that agree with the median: at least half of them and min_ranges, from more than
+  // one landmark (one landmark seen from every keyframe is one measurement, not a consensus).
+  std::vector<double> agree;
+  std::unordered_set<TrackId> tracks;
+  for (const auto& [ratio, id] : ratios)
+    if (std::abs(ratio / mid - 1.0) <= options_.lidar_rescale_agreement) {
+      agree.push_back(ratio);
+      tracks.insert(id);
+    }
+  if (static_cast<int>(agree.size()) < options_.lidar_rescale_min_ranges ||
+      2 * agree.size() < ratios.size() || tracks.size() < 3)
+    return std::nullopt;
+  return upperMedian(agree);
+}
+
+}  // namespace ovo::estimator

@@ -1,0 +1,95 @@
+#include "estimator/window/pose_refinement.hpp"
+
+#include <ceres/ceres.h>
+
+#include <cmath>
+
+#include "factors/bearing_factor.hpp"
+#include "factors/parameterization.hpp"
+#include "factors/pose_prior_factor.hpp"
+
+namespace ovo::estimator {
+
+std::optional<PoseRefinement> refinePose(const std::vector<Vec3>& points_W,
+                                         const std::vector<Vec3>& bearings_C, const SE3& T_W_B_init,
+                                         const std::optional<Mat3>& R_W_B_prior,
+                                         double prior_sigma_rad, const WindowModel& model,
+                                         int max_iterations, double outlier_rad) {
+  const std::size_t n = points_W.size();
+  if (n < 3 || bearings_C.size() != n) return std::nullopt;
+  // Each point as an anchor at the world origin with identity rotation: b_a = p_W - t_B_C
+  // direction is awkward; instead anchor it in a virtual body frame at p_W - R t_B_C.
+  struct Anchor {
+    double q[4] = {0, 0, 0, 1};
+    double p[3] = {0, 0, 0};
+    double rho[1] = {1.0};
+    Vec3 bearing = Vec3::UnitZ();
+  };
+  std::vector<Anchor> anchors(n);
+  const Mat3 R_B_C = model.T_B_C.linear();
+  const Vec3 t_B_C = model.T_B_C.translation();
+  for (std::size_t i = 0; i < n; ++i) {
+    // Virtual anchor body with R_W_Ba = R_C_B (so that R_W_Ba R_B_C = I): its camera sits at
+    // p_W_Ba + R_W_Ba t_B_C; put that camera at the origin and the point at distance 1/rho.
+    const Mat3 R_W_Ba = R_B_C.transpose();
+    Vec3 d = points_W[i];
+    const double dist = d.norm();
+    if (!(dist > 1e-6)) return std::nullopt;
+    factors::quatToBlock(Quat(R_W_Ba), anchors[i].q);
+    const Vec3 p_W_Ba = -R_W_Ba * t_B_C;
+    for (int k = 0; k < 3; ++k) anchors[i].p[k] = p_W_Ba[k];
+    anchors[i].bearing = d / dist;
+    anchors[i].rho[0] = 1.0 / dist;
+  }
+  double q[4], p[3];
+  factors::quatToBlock(Quat(T_W_B_init.linear()).normalized(), q);
+  for (int k = 0; k < 3; ++k) p[k] = T_W_B_init.translation()[k];
+
+  ceres::Problem problem;
+  problem.AddParameterBlock(q, 4, factors::newQuaternionManifold());
+  problem.AddParameterBlock(p, 3);
+  for (std::size_t i = 0; i < n; ++i) {
+    auto* cost = new factors::BearingFactor(anchors[i].bearing, bearings_C[i], model.T_B_C,
+                                            model.bearing_sigma_rad);
+    problem.AddResidualBlock(cost, new ceres::HuberLoss(model.bearing_huber),
+                             {anchors[i].q, anchors[i].p, q, p, anchors[i].rho});
+    problem.SetParameterBlockConstant(anchors[i].q);
+    problem.SetParameterBlockConstant(anchors[i].p);
+    problem.SetParameterBlockConstant(anchors[i].rho);
+  }
+  if (R_W_B_prior) {
+    factors::Mat6 info = factors::Mat6::Zero();
+    info.topLeftCorner<3, 3>() = Mat3::Identity() / (prior_sigma_rad * prior_sigma_rad);
+    SE3 T0 = SE3::Identity();
+    T0.linear() = *R_W_B_prior;
+    problem.AddResidualBlock(new factors::PosePriorFactor(T0, info), nullptr, q, p);
+  }
+  ceres::Solver::Options so;
+  so.linear_solver_type = ceres::DENSE_QR;
+  so.max_num_iterations = max_iterations;
+  so.num_threads = 1;
+  so.logging_type = ceres::SILENT;
+  ceres::Solver::Summary s;
+  ceres::Solve(so, &problem, &s);
+  if (s.termination_type == ceres::FAILURE) return std::nullopt;
+
+  PoseRefinement out;
+  out.T_W_B = SE3::Identity();
+  out.T_W_B.linear() = factors::quatFromBlock(q).toRotationMatrix();
+  out.T_W_B.translation() = Vec3(p[0], p[1], p[2]);
+  if (!allFinite(out.T_W_B)) return std::nullopt;
+  const SE3 T_C_W = (out.T_W_B * model.T_B_C).inverse();
+  out.inlier.resize(n, 0);
+  const double cos_max = std::cos(outlier_rad);
+  for (std::size_t i = 0; i < n; ++i) {
+    const Vec3 p_C = T_C_W * points_W[i];
+    const double norm = p_C.norm();
+    if (norm > 0.0 && p_C.dot(bearings_C[i]) / norm > cos_max) {
+      out.inlier[i] = 1;
+      ++out.num_inliers;
+    }
+  }
+  return out;
+}
+
+}  // namespace ovo::estimator

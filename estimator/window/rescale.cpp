@@ -1,0 +1,34 @@
+#include "estimator/window/rescale.hpp"
+
+#include <vector>
+
+#include "factors/terrain_plane_factor.hpp"
+
+namespace ovo::estimator {
+
+void rescaleWindow(double s, WindowMap& map, WindowGauge& gauge, FrameLog& frames,
+                   const MotionState& motion) {
+  const Vec3 centre = map.keyframes.front()->pose().translation();
+  const factors::TerrainScaling terrain = factors::terrainScaling(centre, s);
+  std::vector<factors::MarginalizationInfo::BlockMap> moved;
+  for (auto& kf : map.keyframes) {
+    Eigen::Map<Vec3> p(kf->p_W_B);
+    p = centre + s * (p - centre);
+    moved.push_back(factors::MarginalizationInfo::scaling(kf->p_W_B, centre, s));
+    if (kf->terrain_set) factors::scaleTerrain(kf->terrain, centre, s);
+    moved.push_back({kf->terrain, terrain.M, terrain.k});
+    kf->lidar_rejected.clear();
+    kf->readout_velocity_B *= s;  // a rolling shutter's motion through the readout
+  }
+  for (auto& [id, lm] : map.landmarks) lm.rho[0] /= s;
+  if (gauge.marginalization) gauge.marginalization = gauge.marginalization->mapped(moved);
+  if (map.find(gauge.kf_id) != nullptr)  // a pose prior on a keyframe of the window moves too
+    gauge.T_W_B.translation() = centre + s * (gauge.T_W_B.translation() - centre);
+  // Frames placed against a keyframe of the window: their offset from it is a length too.
+  for (FrameRecord& r : frames.open())
+    if (r.ref_kf >= 0 && map.find(r.ref_kf) != nullptr) r.T_kf_B.translation() *= s;
+  motion.last_T_W_B.translation() = centre + s * (motion.last_T_W_B.translation() - centre);
+  motion.velocity_W *= s;
+}
+
+}  // namespace ovo::estimator

@@ -1,0 +1,168 @@
+#include "estimator/window/solve.hpp"
+
+#include <ceres/ceres.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <limits>
+#include <unordered_set>
+
+#include "factors/bearing_factor.hpp"
+#include "factors/parameterization.hpp"
+
+namespace ovo::estimator {
+
+SolveSummary solveFactors(std::vector<FactorSpec> factors, const std::vector<Keyframe*>& keyframes,
+                          std::unordered_map<TrackId, Landmark>& landmarks,
+                          const WindowModel& model, const SolveOptions& options) {
+  SolveSummary summary;
+  if (factors.empty()) return summary;
+
+  // Backup for a diverged solve.
+  struct KfBackup {
+    double q[4], g[4], p[3], b[3], terrain[3];
+  };
+  std::vector<KfBackup> kf_backup(keyframes.size());
+  for (std::size_t k = 0; k < keyframes.size(); ++k) {
+    std::copy_n(keyframes[k]->q_W_B, 4, kf_backup[k].q);
+    std::copy_n(keyframes[k]->q_W_G, 4, kf_backup[k].g);
+    std::copy_n(keyframes[k]->p_W_B, 3, kf_backup[k].p);
+    std::copy_n(keyframes[k]->b_g, 3, kf_backup[k].b);
+    std::copy_n(keyframes[k]->terrain, 3, kf_backup[k].terrain);
+  }
+  std::unordered_map<TrackId, double> rho_backup;
+  for (const auto& [id, lm] : landmarks) rho_backup[id] = lm.rho[0];
+  const std::array<ScalarState, 2> scalars = {options.time_offset, options.camera_height_offset};
+  std::array<double, 2> scalar_backup{};
+  for (std::size_t i = 0; i < scalars.size(); ++i)
+    if (scalars[i].block) scalar_backup[i] = scalars[i].block[0];
+
+  // The blocks the factors use: a keyframe's orientation gets its manifold only when a factor
+  // holds it (one without any, e.g. no landmark yet, is left out rather than left floating; asking
+  // Ceres afterwards scans every residual block per keyframe).
+  std::unordered_set<const double*> used;
+  for (const FactorSpec& f : factors) used.insert(f.blocks.begin(), f.blocks.end());
+  ceres::Problem problem;
+  for (Keyframe* kf : keyframes) {
+    if (used.count(kf->q_W_B))
+      problem.AddParameterBlock(kf->q_W_B, 4, factors::newQuaternionManifold());
+    if (tiedRotations(model) && used.count(kf->q_W_G))
+      problem.AddParameterBlock(kf->q_W_G, 4, factors::newQuaternionManifold());
+  }
+  for (FactorSpec& f : factors) {
+    problem.AddResidualBlock(f.cost.release(), f.loss.release(), f.blocks);
+    ++summary.residual_blocks;
+  }
+  for (auto& [id, lm] : landmarks) {
+    if (!used.count(lm.rho)) continue;
+    problem.SetParameterLowerBound(lm.rho, 0, model.min_rho);
+    problem.SetParameterUpperBound(lm.rho, 0, model.max_rho);
+    lm.rho[0] = std::clamp(lm.rho[0], model.min_rho, model.max_rho);
+  }
+
+  for (const ScalarState& x : scalars) {
+    if (!x.block || !problem.HasParameterBlock(x.block)) continue;
+    if (x.hold) {
+      problem.SetParameterBlockConstant(x.block);
+    } else {
+      problem.SetParameterLowerBound(x.block, 0, -x.max_abs);
+      problem.SetParameterUpperBound(x.block, 0, x.max_abs);
+    }
+  }
+
+  ceres::Solver::Options so;
+  so.linear_solver_type = options.linear_solver == LinearSolver::kSparseSchur ? ceres::SPARSE_SCHUR
+                                                                              : ceres::DENSE_SCHUR;
+  so.max_num_iterations = options.max_iterations;
+  if (options.max_time_s > 0.0) so.max_solver_time_in_seconds = options.max_time_s;
+  so.num_threads = options.num_threads;
+  // No explicit ordering: Ceres' own keeps the program's order (a ParameterBlockOrdering orders
+  // each group by address, which differs between runs and changes the answers in the last bits).
+  so.logging_type = ceres::SILENT;
+  so.minimizer_progress_to_stdout = false;
+  ceres::Solver::Summary s;
+  ceres::Solve(so, &problem, &s);
+
+  summary.iterations = static_cast<int>(s.iterations.size());
+  summary.initial_cost = s.initial_cost;
+  summary.final_cost = s.final_cost;
+  summary.message = s.message;
+  bool finite = s.termination_type != ceres::FAILURE;
+  for (const Keyframe* kf : keyframes)
+    finite = finite &&
+             std::isfinite(kf->q_W_B[0] + kf->q_W_B[1] + kf->q_W_B[2] + kf->q_W_B[3] +
+                           kf->p_W_B[0] + kf->p_W_B[1] + kf->p_W_B[2] + kf->b_g[0] + kf->b_g[1] +
+                           kf->b_g[2] + kf->terrain[0] + kf->terrain[1] + kf->terrain[2] +
+                           kf->q_W_G[0] + kf->q_W_G[1] + kf->q_W_G[2] + kf->q_W_G[3]);
+  for (const auto& [id, lm] : landmarks) finite = finite && std::isfinite(lm.rho[0]);
+  for (const ScalarState& x : scalars) finite = finite && (!x.block || std::isfinite(x.block[0]));
+  if (!finite) {
+    for (std::size_t i = 0; i < scalars.size(); ++i)
+      if (scalars[i].block) scalars[i].block[0] = scalar_backup[i];
+    for (std::size_t k = 0; k < keyframes.size(); ++k) {
+      std::copy_n(kf_backup[k].q, 4, keyframes[k]->q_W_B);
+      std::copy_n(kf_backup[k].g, 4, keyframes[k]->q_W_G);
+      std::copy_n(kf_backup[k].p, 3, keyframes[k]->p_W_B);
+      std::copy_n(kf_backup[k].b, 3, keyframes[k]->b_g);
+      std::copy_n(kf_backup[k].terrain, 3, keyframes[k]->terrain);
+    }
+    for (auto& [id, lm] : landmarks) lm.rho[0] = rho_backup[id];
+    return summary;
+  }
+  for (Keyframe* kf : keyframes) {  // keep the quaternions exactly unit
+    factors::quatToBlock(factors::quatFromBlock(kf->q_W_B), kf->q_W_B);
+    if (tiedRotations(model))
+      factors::quatToBlock(factors::quatFromBlock(kf->q_W_G), kf->q_W_G);
+    else  // one orientation for both
+      std::copy_n(kf->q_W_B, 4, kf->q_W_G);
+  }
+  summary.usable = true;
+  return summary;
+}
+
+void repropagateGyro(const std::vector<Keyframe*>& keyframes) {
+  for (std::size_t k = 1; k < keyframes.size(); ++k) {
+    auto& pi = keyframes[k]->preint_from_prev;
+    if (pi && pi->needsRepropagation(keyframes[k - 1]->bias(), 0.002))
+      pi->repropagate(keyframes[k - 1]->bias());
+  }
+}
+
+std::vector<ObservationError> observationErrors(const std::vector<Keyframe*>& keyframes,
+                                                const std::unordered_map<TrackId, Landmark>& lms,
+                                                const WindowModel& model) {
+  std::vector<ObservationError> out;
+  const auto kf_of = keyframesById(keyframes);
+  const Mat3 R_B_C = model.T_B_C.linear();
+  const Vec3 t_B_C = model.T_B_C.translation();
+  for (const auto& [id, lm] : lms) {
+    auto a = kf_of.find(lm.anchor_kf);
+    if (a == kf_of.end() || !(lm.rho[0] >= 0.0)) continue;
+    const Keyframe& anchor = *a->second;
+    for (const Keyframe* kf : keyframes) {
+      if (kf == &anchor) continue;
+      auto obs = kf->observations.find(id);
+      if (obs == kf->observations.end()) continue;
+      const TrackObservation& o = obs->second;
+      const auto u = factors::predictBearing(lm.bearing_anchor_C, R_B_C, t_B_C, anchor.q_W_B,
+                                             anchor.p_W_B, kf->q_W_B, kf->p_W_B, lm.rho[0], false);
+      if (!u) {
+        out.push_back({kf->id, id, M_PI, std::numeric_limits<double>::infinity()});
+        continue;
+      }
+      const double angle = std::acos(std::clamp(u->u.dot(o.bearing_C), -1.0, 1.0));
+      // In the sighting's own sigmas: its tangent-plane offset whitened as its factor would be
+      // against the anchor (pixel noise and creep since the anchor, through the camera).
+      const Mat2 W = sightingSqrtInformation(o, anchorSigmaPx(anchor, o, model), model);
+      const Vec2 r = W * (factors::BearingFactor::tangentBasis(o.bearing_C) * u->u);
+      const double sigmas = u->u.dot(o.bearing_C) > 0.0
+                                ? r.norm()
+                                : std::numeric_limits<double>::infinity();  // behind
+      out.push_back({kf->id, id, angle, sigmas});
+    }
+  }
+  return out;
+}
+
+}  // namespace ovo::estimator
