@@ -122,8 +122,8 @@ class StageQueue {
 };
 
 // Decodes the dataset's images in order on its own thread, up to kPrefetchImages ahead of the
-// frontend stage, which then does not wait for the PNG decoder (9 % of a run's CPU on the
-// simulated vineyard_row, about 3.5 ms an image, on the frontend's path before).
+// frontend stage, which then does not wait for the PNG decoder (a good share of a run's CPU, on
+// the frontend's path before).
 constexpr std::size_t kPrefetchImages = 4;
 
 class ImagePrefetcher {

@@ -37,7 +37,7 @@ inline constexpr double kMinReplayRate = 0.01;
 inline constexpr double kMaxReplayRate = 1000.0;
 
 /// The online mode's time budget per window solve (window.max_solver_time_s), s: a late solve
-/// holds up every frame queued behind it (issue 43).
+/// holds up every frame queued behind it.
 inline constexpr double kOnlineSolveBudgetS = 0.04;
 /// Gives `config` that budget for the window estimator unless it sets one: what every online entry
 /// point (ovo run --realtime, the live API with realtime, ovo_live_camera) applies before it
@@ -50,8 +50,8 @@ struct OnlineOptions {
   double gyro_wait_ms = 50.0;  // a frame waits at most this long (from addImage) for the gyro
                                // sample at or after its time, once any gyro sample has been seen
   /// OnlineStats::latency_ms: 0 keeps every frame's (ovo run --realtime writes them per frame);
-  /// N keeps the last N to 2N, so that a run of hours stays flat in memory (an 8-hour soak's
-  /// vector grew by 4 MB at 20 frames a second).
+  /// N keeps the last N to 2N, so that a run of hours stays flat in memory (kept whole, the
+  /// vector grows with every frame).
   std::size_t latency_history = 0;
 };
 

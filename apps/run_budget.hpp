@@ -1,4 +1,4 @@
-// Compute budgets for `ovo run --budget` (issue 43): named presets that trade accuracy for time on
+// Compute budgets for `ovo run --budget`: named presets that trade accuracy for time on
 // a robot's small computer, as configuration keys. A preset only fills keys that the --config file
 // and --set leave unset, so each of its choices can still be overridden one by one. What each
 // preset costs and saves on the simulated runs and KITTI 07 is in the README ("Speed").

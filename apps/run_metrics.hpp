@@ -26,7 +26,7 @@ struct RunTiming {
 
 /// Builds the metrics object. `groundtruth` may be empty. min_move_m: the translation-direction
 /// error of frame i is measured to the first later frame that truly moved at least this far
-/// (issue 4: 5 cm).
+/// (5 cm by default).
 nlohmann::json computeRunMetrics(const Trajectory& estimate, const Trajectory& groundtruth,
                                  const estimator::EstimatorStats& stats, const RunTiming& timing,
                                  double min_move_m = 0.05);

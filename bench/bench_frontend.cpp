@@ -1,4 +1,4 @@
-// Frontend speed (issue 4 target: detection + matching + serial RANSAC <= 10 ms median per 640x480
+// Frontend speed (target: detection + matching + serial RANSAC <= 10 ms median per 640x480
 // frame on one core). Frame pairs: KITTI 07 frames 0/1 from the shared data, and a 640x480 fisheye
 // pair rendered by the simulator (vineyard_row, RoMoVi OCamCalib camera). Stage counters are thread
 // CPU ms; OVO_BENCH_SET="frontend.key=value;..." overrides frontend options for experiments.
@@ -71,7 +71,7 @@ frontend::FrontendOptions benchOptions(bool half = false, const std::string& bac
 // One iteration = one frame: the two images alternate, so every frame is matched with the other.
 // Tracks matched here never end; the default history cap (TrackerOptions::max_history) bounds
 // their storage as in a real sequence (uncapped, the benchmark measured growing buffers).
-// backend: the RANSAC backend (issue 5 asks for the frontend's end-to-end time with each); the
+// backend: the RANSAC backend (the frontend's end-to-end time with each one is wanted); the
 // stage counters are CPU time of this thread, so compare the threads/opencl variants by wall time.
 void runFrontend(benchmark::State& state, const std::optional<FramePair>& pair, bool half = false,
                  const std::string& backend = "serial") {

@@ -1,4 +1,4 @@
-// RANSAC benchmarks (issue 5): whole relative-pose RANSAC per backend, its hot loop (generation
+// RANSAC benchmarks: whole relative-pose RANSAC per backend, its hot loop (generation
 // and scoring) and the scoring alone per backend, a plain Eigen scoring loop as the reference, the
 // hypothesis generation, and OpenGV's 8-point RANSAC as the peer when libopengv-dev is installed.
 // Problem: wide-angle two-view bearings (up to 100 degrees off axis), 30 % outliers, 0.5 px noise

@@ -1,4 +1,4 @@
-// The window's keyframe work on a real run (issue 43): the simulated vineyard_row dataset (as
+// The window's keyframe work on a real run: the simulated vineyard_row dataset (as
 // `ovo simulate` writes it and `ovo run` reads it) through the window estimator, frontend and
 // estimator stages in sequence. The frontend runs untimed; the benchmark's time is the estimator
 // stage's on the keyframes (their solve and marginalisation: metrics.json's keyframe_ms), so one

@@ -125,8 +125,8 @@ Detection detectBoard(const cv::Mat& grey, const BoardSpec& spec, const std::str
   const cv::Size pattern(spec.cols, spec.rows);
   std::vector<std::string> problems;
   std::vector<cv::Point2f> pts;
-  // SB's own accuracy mode (CALIB_CB_ACCURACY) triples the time and gains nothing after
-  // cornerSubPix (fish_1: same RMS).
+  // SB's own accuracy mode (CALIB_CB_ACCURACY) costs much more time and gains nothing after
+  // cornerSubPix.
   if (cv::findChessboardCornersSB(grey, pattern, pts, cv::CALIB_CB_EXHAUSTIVE)) {
     std::vector<Vec2> corners = toVec(pts);
     refineCorners(grey, spec, options.subpix_half_window_px, &corners);

@@ -21,8 +21,8 @@ CameraModelKind parseCameraModel(const std::string& name, const std::string& opt
 std::string modelKindName(CameraModelKind kind);
 
 /// How the board's own geometry is modelled. A printed board is rarely exact: its grid may be
-/// sheared or stretched along one axis by the printer (on fish_1 a 0.17 deg shear is worth a
-/// quarter of the RMS). p_B = S (X, Y) with S = [1 shear; 0 1 + stretch] on the board plane.
+/// sheared or stretched along one axis by the printer (a shear of a fraction of a degree can be a
+/// good part of the RMS). p_B = S (X, Y) with S = [1 shear; 0 1 + stretch] on the board plane.
 enum class BoardShape {
   kRigid,     // S = identity: the board is exactly as specified
   kShared,    // one S for all views (2 parameters): the printed board's own distortion

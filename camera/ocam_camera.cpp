@@ -18,8 +18,8 @@ constexpr double kToolboxThetaMax = 1.2;
 constexpr double kRadiusStepPx = 0.05;
 // Radial sampling bounds: the inverse polynomial's fit every 0.25 px and its round trip every
 // kRadiusStepPx up to a 2000 px and a 5000 px radius; a larger radius (only a broken affine
-// gives one: c = 0.002 in a fuzzed calib_results.txt, a 300000 px radius and minutes of
-// fitting) is sampled more coarsely.
+// gives one, as a fuzzed calib_results.txt did, and the fine sampling of it took far too long)
+// is sampled more coarsely.
 constexpr int kMaxFitSamples = 8000;
 constexpr double kMaxRoundTripSteps = 100000.0;
 

@@ -1,6 +1,6 @@
 // What the running process has used so far: CPU time (user + system, all threads) and its peak
 // resident memory, from getrusage (Linux: ru_maxrss in KiB). `ovo run`'s metrics.json reports the
-// run's share (timing.cpu_s, timing.peak_rss_mb; issue 43).
+// run's share (timing.cpu_s, timing.peak_rss_mb).
 #pragma once
 
 #include <sys/resource.h>

@@ -1,3 +1,4 @@
+// The estimator factory (by name) and the interface's shared helpers.
 #include "estimator/estimator.hpp"
 
 #include <cmath>

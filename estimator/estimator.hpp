@@ -59,8 +59,8 @@ struct FrameEstimate {
   std::vector<TrackPx> tracks;  // optional (viewer): features of this image on tracks of age >= 2
 };
 
-/// Frees a kept estimate's tracks (clear() keeps their memory: about 0.4 MB a frame, which made a
-/// run's resident memory grow with its length).
+/// Frees a kept estimate's tracks (clear() keeps their memory, which made a run's resident memory
+/// grow with its length).
 inline void dropTracks(FrameEstimate& f) { std::vector<TrackPx>().swap(f.tracks); }
 
 /// Wall time since t0 in milliseconds (FrameEstimate::frontend_ms / estimator_ms).

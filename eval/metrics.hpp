@@ -71,8 +71,7 @@ struct RpeOptions {
   double delta = 1.0;
   DeltaUnit unit = DeltaUnit::kFrames;
   /// evo picks the pairs on the estimate's path by default (`pairs_from_reference=False`;
-  /// this is what reproduces its 353 pairs on KITTI 00 / ORB at 10 m); true picks them on the
-  /// reference path.
+  /// this is what reproduces its pair counts); true picks them on the reference path.
   bool pairs_from_reference = false;
 };
 

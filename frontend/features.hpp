@@ -23,8 +23,8 @@ enum class FeatureClass : std::uint8_t {
 constexpr int kNumFeatureClasses = 4;
 
 struct DetectorOptions {
-  // NMS neighbourhood (2n+1)^2 (pixels of the detection grid). libviso2 uses 3; 4 keeps 1.5x
-  // fewer (5: 2.2x) evenly spread features on contrasted textures, and unlike a per-bin cap the
+  // NMS neighbourhood (2n+1)^2 (pixels of the detection grid). libviso2 uses 3; 4 keeps fewer
+  // (5: fewer still), evenly spread features on contrasted textures, and unlike a per-bin cap the
   // choice does not depend on where the grid falls, so both frames keep the same features.
   int nms_n = 4;
   int nms_n_sparse = 8;          // larger neighbourhood of the sparse (flow prior) features

@@ -3,26 +3,22 @@
 // around the track's own sub-pixel position, started from the descriptor match's flow. On by
 // default (frontend.track_refine), with a 9x9 patch of Gaussian weight sigma 2 px.
 //
-// Why on, and why that patch (the step went in off by default, measured before the window
-// estimator modelled the tracks' creep; measured again now): over the 21 simulated runs (six
-// scenarios, default and other seeds) the window's ATE sum is 0.161 m without the step, 0.146 m
-// with a 7x7 patch (sigma 1.5), 0.124 m with 9x9 (sigma 2), 0.118 m with 11x11 (sigma 2.5) and
-// 0.124 m with 13x13 (sigma 3). On KITTI 07 (first 160 frames) the online window goes from 1.32 to
-// 0.65 % (11x11: 0.70 %); 9x9 is the better of the two on the real data.
-// Cost (BM_TrackRefine, one thread, every match of the fisheye pair): 0.45 us a step, 3.2 ms for
-// the pair's 7197 matches; 0.90 us with the first, scalar loops, which vectorise in
-// track_refine_simd.cpp (whole patch rows of zero-padded weights, one accumulator per column).
-// Measured, not kept: a right-hand side without the patch's mean saved no time; 3 iterations
-// instead of 5 saved a little and cost vineyard_row 6.4 -> 6.8 mm.
+// Why on, and why that patch (the step went in off by default, before the window estimator
+// modelled the tracks' creep): with the creep modelled, the step lowers the window's error on the
+// simulated runs and on KITTI 07; of the patches, 11x11 does a little better than 9x9 on the
+// simulated runs and 9x9 is the better of the two on the real data. Its cost is one small
+// alignment per continued track, with loops that vectorise in track_refine_simd.cpp (whole patch
+// rows of zero-padded weights, one accumulator per column). Tried, not kept: a right-hand side
+// without the patch's mean saved no time; fewer iterations saved a little and cost accuracy.
 //
-// On a rendered row (ground tracks against the simulator's geometry, TrackDrift tests) the median
-// error one frame after a track's start falls from 0.22 to 0.16 px and ten frames after from 0.78
-// to 0.40 px; the steps under half a pixel no longer lock to whole pixels (-0.032 -> -0.008 px).
-// Points next to a depth edge keep their bias along the flow with or without it, for any patch
-// size: their patches move partly with the nearer surface, and this does not fix them. Nor is the
-// ten-frame drift the steps' noise adding up: aligning each track's patch from its first frame
-// instead of the previous one (tried with the 7x7 patch, not kept) left the median error after
-// ten frames at 0.40 px against 0.42 px with these steps.
+// On a rendered row (ground tracks against the simulator's geometry, TrackDrift tests) the step
+// lowers the tracks' error one and ten frames after their start, and the steps under half a pixel
+// no longer lock to whole pixels. Points next to a depth edge keep their bias along the flow with
+// or without it, for any patch size: their patches move partly with the nearer surface, and this
+// does not fix them. Nor is the ten-frame drift the steps' noise adding up: aligning each track's
+// patch from its first frame instead of the previous one (tried, not kept) hardly lowered it.
+//
+// The measurements behind these choices: docs/code-notes.md.
 #pragma once
 
 #include <opencv2/core.hpp>

@@ -2,7 +2,7 @@
 // track_refine.hpp). This file gets OVO_KERNEL_FLAGS. Patches are rows of kLkStride floats with
 // zero weight past the patch, and every sum keeps one accumulator per column, so that the
 // compiler vectorises the loops for the native ISA: a float sum into a single accumulator does not
-// vectorise without reassociation, and the scalar loops cost 0.9 us a step (BM_TrackRefine).
+// vectorise without reassociation, and the scalar loops are markedly slower (BM_TrackRefine).
 #include <algorithm>
 #include <cmath>
 #include <cstddef>

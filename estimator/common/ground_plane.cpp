@@ -1,3 +1,4 @@
+// The ground-plane fit (RANSAC and least squares on unit-scale points) and its scale.
 #include "estimator/common/ground_plane.hpp"
 
 #include <Eigen/Eigenvalues>

@@ -1,7 +1,7 @@
 // Ground-plane fit on unit-scale triangulated points: the monocular scale of the plain `vo`
 // chain. libviso2 takes the mode of the points' heights along an assumed camera pitch; ovo fits
 // the plane (normal and the camera's height over it) by RANSAC + least squares, so the pitch is
-// estimated, not assumed (issue 4: KITTI 07 with pitch 0 drifts 53 % otherwise).
+// estimated, not assumed (a wrongly assumed pitch makes the scale drift).
 #pragma once
 
 #include <cstdint>

@@ -1,12 +1,10 @@
-// Time-ordered store of gyro samples shared by the estimators: hands out the samples around an
-// interval (for preintegration) and drops what no estimator state needs any more. FrontendGyro is
-// the frontend stage's thread-safe copy (for the matching prior).
+// Time-ordered store of gyro samples (GyroFront's): hands out the samples around an interval (for
+// preintegration) and drops what no estimator state needs any more; and the mean and scatter of a
+// frame's samples (the standstill tests).
 #pragma once
 
 #include <algorithm>
 #include <cmath>
-#include <deque>
-#include <mutex>
 #include <span>
 #include <vector>
 
@@ -68,65 +66,6 @@ class GyroBuffer {
 
  private:
   std::vector<ImuSample> samples_;
-};
-
-/// The gyro as the frontend stage sees it: samples fed from any thread (ahead of the estimator
-/// stage) and the biases the estimator stage published after each frame. The prior for the
-/// interval from frame k-1 to frame k uses the bias published for frame k-1-lead (the newest one
-/// published at or before that frame's time; zero before there is such a frame): when the stages
-/// run on two threads, track(k) may run while update(k-lead) .. update(k-1) do, so a newer bias
-/// would make the result depend on which thread is faster. Run in sequence, or in two threads with
-/// track(k) started after update(k-1-lead), the poses are the same
-/// (estimator::kFrontendLeadFrames).
-class FrontendGyro {
- public:
-  /// What the rotation prior from t0 to t1 needs: GyroBuffer::around(t0, t1) and the bias.
-  struct Window {
-    std::vector<ImuSample> samples;
-    Vec3 bias_radps = Vec3::Zero();
-  };
-
-  /// lead_frames >= 0: how many frames the frontend stage may be ahead of the estimator stage.
-  explicit FrontendGyro(int lead_frames) : lead_frames_(std::max(lead_frames, 0)) {}
-
-  bool add(const ImuSample& s) {
-    std::lock_guard lock(mutex_);
-    return buffer_.add(s);
-  }
-  /// The estimator stage's bias after the frame at t_frame (frames in time order).
-  void publishBias(Timestamp t_frame_ns, const Vec3& bias_radps) {
-    std::lock_guard lock(mutex_);
-    if (!biases_.empty() && t_frame_ns <= biases_.back().first) return;
-    biases_.emplace_back(t_frame_ns, bias_radps);
-  }
-  /// The prior's inputs for the frontend's frame at t1 after its frame at t0: copies the samples
-  /// around [t0, t1] and the bias published for the frame lead_frames before t0's, then forgets
-  /// the samples and biases no later call needs (the frontend's frames come in time order, so t0
-  /// is never earlier next time).
-  Window take(Timestamp t0_ns, Timestamp t1_ns) {
-    std::lock_guard lock(mutex_);
-    const auto span = buffer_.around(t0_ns, t1_ns);
-    Window w{{span.begin(), span.end()}, Vec3::Zero()};
-    buffer_.dropBefore(t0_ns);
-    if (frames_.empty() || t0_ns > frames_.back()) frames_.push_back(t0_ns);
-    while (static_cast<int>(frames_.size()) > lead_frames_ + 1) frames_.pop_front();
-    if (static_cast<int>(frames_.size()) <= lead_frames_) return w;  // no frame that far back yet
-    auto after = std::upper_bound(biases_.begin(), biases_.end(), frames_.front(),
-                                  [](Timestamp t, const auto& b) { return t < b.first; });
-    if (after != biases_.begin()) {
-      --after;  // the newest published at or before frame k-1-lead
-      w.bias_radps = after->second;
-      biases_.erase(biases_.begin(), after);
-    }
-    return w;
-  }
-
- private:
-  const int lead_frames_;
-  std::mutex mutex_;
-  GyroBuffer buffer_;
-  std::deque<std::pair<Timestamp, Vec3>> biases_;  // (frame time, bias), time order
-  std::deque<Timestamp> frames_;                   // the frontend's last lead_frames + 1 frames
 };
 
 }  // namespace ovo::estimator

@@ -1,3 +1,4 @@
+// The spike test of each gyro sample against the last accepted one.
 #include "estimator/common/gyro_spike_filter.hpp"
 
 #include <cmath>

@@ -1,3 +1,4 @@
+// Deskewing a swept scan: its beams moved to the stamp's LiDAR pose and resampled.
 #include "estimator/common/lidar_deskew.hpp"
 
 #include <algorithm>

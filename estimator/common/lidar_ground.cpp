@@ -1,3 +1,4 @@
+// The camera height from a downward-pitched LiDAR's ground beams.
 #include "estimator/common/lidar_ground.hpp"
 
 #include <algorithm>

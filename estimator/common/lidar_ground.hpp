@@ -43,7 +43,7 @@ struct LidarCameraHeight {
 /// The body's height from the first max_scans scans (bodyHeightFromScan), plus T_B_C's z: the
 /// median of the largest group of scans whose heights agree within agreement_m. While the robot
 /// drives, the ground 5 m ahead where a pitched scan meets it is seldom in the plane the robot
-/// stands on (on a rough slope the heights scatter by +-7 cm); standing, or on flat ground, the
+/// stands on (on a rough slope the heights scatter widely); standing, or on flat ground, the
 /// scans agree. nullopt when the group is smaller than min_scans or min_agreeing of the scans
 /// with a band.
 std::optional<LidarCameraHeight> cameraHeightFromLidar(const std::vector<LidarScan>& scans,

@@ -1,3 +1,4 @@
+// The kf's LiDAR scale: scan points associated with features, a robust mean of range ratios.
 #include "estimator/common/lidar_scale.hpp"
 
 #include <algorithm>
@@ -96,8 +97,8 @@ bool onDepthEdge(const LidarScan& scan, std::size_t b, double edge_relative) {
 // off its plane, and the feature lies a pixel or two off it: the surface is taken as the plane
 // through p_C containing the scan's tangent there and the vertical (up_C): a vine row, trunk or
 // post. Ground beams (p_C about a camera height below the camera) are skipped: a pitched LiDAR
-// meets the ground at a grazing angle where the range hangs on the slope (on the simulated rows
-// they read about 10 % long). Without a usable plane, the point at the beam's range along b_c.
+// meets the ground at a grazing angle where the range hangs on the slope (they read long).
+// Without a usable plane, the point at the beam's range along b_c.
 std::optional<Vec3> onBeamSurface(const LidarScan& scan, const SE3& T_C_L, std::size_t beam,
                                   const Vec3& p_C, const Vec3& b_c, const Vec3& up_C,
                                   std::optional<double> camera_height_m) {

@@ -1,4 +1,4 @@
-// The Kalman-filter baseline's metric scale from a planar LiDAR (DESIGN section 7, issue 6): scan
+// The Kalman-filter baseline's metric scale from a planar LiDAR (DESIGN section 7): scan
 // points projected into the image are associated with triangulated features, and the scale of the
 // unit-scale two-view reconstruction is a robust mean of LiDAR range over feature range.
 //

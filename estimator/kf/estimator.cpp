@@ -1,3 +1,4 @@
+// The kf estimator: the vo chain's steps fused with the gyro filter, scaled by ground and LiDAR.
 #include "estimator/kf/estimator.hpp"
 
 #include <fmt/format.h>
@@ -9,52 +10,14 @@
 #include <span>
 
 #include "common/so3.hpp"
-#include "estimator/common/gyro_buffer.hpp"
-#include "estimator/kf/filter.hpp"
+#include "estimator/common/gyro_front.hpp"
 #include "estimator/common/lidar_deskew.hpp"
 #include "estimator/common/lidar_scale.hpp"
-#include "estimator/vo/chain.hpp"
 #include "estimator/common/two_view.hpp"  // medianParallaxDeg
+#include "estimator/kf/filter.hpp"
+#include "estimator/vo/chain.hpp"
 
 namespace ovo::estimator {
-
-KfEstimatorOptions readKfEstimatorOptions(const Config& cfg, const SensorSetup& setup) {
-  KfEstimatorOptions o;
-  o.camera_height_m = cfg.getInRange("vo.camera_height_m", o.camera_height_m, 0.0, 100.0);
-  o.max_speed_mps = cfg.getInRange("vo.max_speed_mps", o.max_speed_mps, 0.01, 100.0);
-  o.lidar_scale_hold_s = cfg.getInRange("kf.lidar_scale_hold_s", o.lidar_scale_hold_s, 0.0, 100.0);
-  o.scan_time_tolerance_s =
-      cfg.getInRange("kf.scan_time_tolerance_s", o.scan_time_tolerance_s, 0.0, 1.0);
-  o.lidar_baseline_s = cfg.getInRange("kf.lidar_baseline_s", o.lidar_baseline_s, 0.01, 10.0);
-  o.lidar_min_baseline_m =
-      cfg.getInRange("kf.lidar_min_baseline_m", o.lidar_min_baseline_m, 0.0, 100.0);
-  o.lidar_max_rotation_deg =
-      cfg.getInRange("kf.lidar_max_rotation_deg", o.lidar_max_rotation_deg, 0.0, 180.0);
-  o.scale_sigma0 = cfg.getInRange("kf.scale_sigma0", o.scale_sigma0, 1e-6, 10.0);
-  o.scale_walk = cfg.getInRange("kf.scale_walk", o.scale_walk, 0.0, 10.0);
-  o.scale_noise_floor = cfg.getInRange("kf.scale_noise_floor", o.scale_noise_floor, 1e-6, 10.0);
-  o.scale_gate_chi2 = cfg.getInRange("kf.scale_gate_chi2", o.scale_gate_chi2, 0.0, 1e9);
-  o.scale_deadband = cfg.getInRange("kf.scale_deadband", o.scale_deadband, 0.0, 1.0);
-  o.refit_translation = cfg.get<bool>("kf.refit_translation", o.refit_translation);
-  o.zero_rate_update = cfg.get<bool>("kf.zero_rate_update", o.zero_rate_update);
-  o.still_flow_deg = cfg.getInRange("kf.still_flow_deg", o.still_flow_deg, 0.0, 10.0);
-  o.still_gyro_std_radps =
-      cfg.getInRange("kf.still_gyro_std_radps", o.still_gyro_std_radps, 0.0, 10.0);
-  o.still_trim_s = cfg.getInRange("kf.still_trim_s", o.still_trim_s, 0.0, 10.0);
-  o.use_gyro = cfg.get<bool>("kf.use_gyro", o.use_gyro);
-  o.use_lidar = cfg.get<bool>("kf.use_lidar", o.use_lidar);
-  o.lidar_deskew = cfg.get<bool>("kf.lidar_deskew", o.lidar_deskew);
-  o.ground = readGroundPlaneOptions(cfg);
-  o.lidar = readLidarScaleOptions(cfg);
-  // The filter's gyro noise defaults to the rig's figures unless the config sets them (read from
-  // cfg itself so that every key counts as used).
-  const bool has_noise = cfg.has("kf.gyro_noise_density");
-  const bool has_walk = cfg.has("kf.gyro_bias_random_walk");
-  o.filter = readKfOptions(cfg);
-  if (!has_noise) o.filter.gyro_noise_density = std::max(setup.gyro_noise_density, 1e-9);
-  if (!has_walk) o.filter.gyro_bias_random_walk = std::max(setup.gyro_bias_random_walk, 0.0);
-  return o;
-}
 
 namespace {
 
@@ -74,47 +37,15 @@ using Status = frontend::RelativePoseResult::Status;
 // significant: |x| > scale_deadband and |x| > 3 sqrt(P) (then fully; until |x| falls below half
 // the deadband). Without a camera height the LiDAR scales each step directly (estimateLidarScale on
 // the unit-scale points).
-// The filter's gyro propagation from a frame at t0 to t1 (KfFilter::propagate for the samples up
-// to t1, then KfFilter::propagateTo) with the bias held, as the rotation R_B0_B1 it adds: what
-// the filter predicts for the matcher, from the frontend stage's copy of the gyro. samples: the
-// last one at or before t0 and those after it.
-Mat3 predictGyroRotation(std::span<const ImuSample> samples, Timestamp t0_ns, Timestamp t1_ns,
-                         const Vec3& bias_radps, double max_gap_s) {
-  const Timestamp max_gap_ns = fromSeconds(max_gap_s);
-  Mat3 R_B0_B = Mat3::Identity();
-  const ImuSample* last = nullptr;
-  Timestamp t_now = t0_ns;
-  for (const ImuSample& sample : samples) {
-    if (sample.t_ns > t1_ns) break;
-    if (sample.t_ns > t_now) {
-      const double dt_s = toSeconds(sample.t_ns - t_now);
-      if (last && sample.t_ns - last->t_ns <= max_gap_ns) {
-        // Rate at the midpoint of [t_now, sample.t], linear between the two samples.
-        const double span_ns = static_cast<double>(sample.t_ns - last->t_ns);
-        const double t_mid_ns = 0.5 * static_cast<double>(t_now + sample.t_ns);
-        const double alpha =
-            span_ns > 0.0 ? (t_mid_ns - static_cast<double>(last->t_ns)) / span_ns : 1.0;
-        const Vec3 w = last->gyro_radps + alpha * (sample.gyro_radps - last->gyro_radps);
-        R_B0_B = R_B0_B * so3::exp((w - bias_radps) * dt_s);
-      } else if (!last && sample.t_ns - t_now <= max_gap_ns) {
-        R_B0_B = R_B0_B * so3::exp((sample.gyro_radps - bias_radps) * dt_s);
-      }
-      t_now = sample.t_ns;
-    }
-    last = &sample;
-  }
-  if (t1_ns > t_now && last && t1_ns - last->t_ns <= max_gap_ns)
-    R_B0_B = R_B0_B * so3::exp((last->gyro_radps - bias_radps) * toSeconds(t1_ns - t_now));
-  return R_B0_B;
-}
-
 class KfEstimator final : public Estimator {
  public:
   KfEstimator(const SensorSetup& setup, const Config& config)
       : setup_(setup),
         options_(readKfEstimatorOptions(config, setup)),
         chain_(setup.camera, config),
-        filter_(options_.filter) {
+        frontend_gyro_(kFrontendLeadFrames, gyroFrontOptions()),
+        filter_(options_.filter),
+        gyro_(gyroFrontOptions()) {
     up_C_ = bodyUpIn(setup_.T_B_C);
     T_C_L_ = cameraFromLidar(setup_.T_B_C, setup_.T_B_L);
     height_m_ = options_.camera_height_m > 0 ? options_.camera_height_m
@@ -144,17 +75,13 @@ class KfEstimator final : public Estimator {
   }
 
   void addEstimatorGyro(const ImuSample& sample) override {
-    if (!use_gyro_ || !sample.gyro_radps.allFinite()) return;
-    if (!pending_gyro_.empty() && sample.t_ns <= pending_gyro_.back().t_ns) return;
-    pending_gyro_.push_back(sample);
-    if (use_lidar_ && options_.lidar_deskew) {  // the rates of the scans' sweeps
-      recent_gyro_.push_back(sample);
-      const Timestamp keep_from = sample.t_ns - fromSeconds(kRecentGyroS);
-      if (recent_gyro_.front().t_ns < keep_from - fromSeconds(kRecentGyroS))  // now and then
-        recent_gyro_.erase(
-            recent_gyro_.begin(),
-            std::lower_bound(recent_gyro_.begin(), recent_gyro_.end(), keep_from,
-                             [](const ImuSample& g, Timestamp t) { return g.t_ns < t; }));
+    if (!use_gyro_) return;
+    if (gyro_.add(sample) == GyroFront::Intake::kSpike && !said_spikes_) {
+      stats_.notes.push_back(fmt::format(
+          "kf: gyro samples whose rate jumped by more than {} rad/s in one sample were left out "
+          "as spikes",
+          options_.gyro_max_jump_radps));
+      said_spikes_ = true;
     }
   }
 
@@ -329,15 +256,29 @@ class KfEstimator final : public Estimator {
   // keeps the mean and spread of this frame's samples for the standstill test.
   void feedGyroUntil(Timestamp t_ns) {
     frame_gyro_ = {};
-    while (!pending_gyro_.empty() && pending_gyro_.front().t_ns <= t_ns) {
-      const ImuSample& g = pending_gyro_.front();
+    const auto& samples = gyro_.samples();
+    auto it = samples.begin();
+    if (last_gyro_t_)
+      it = std::upper_bound(samples.begin(), samples.end(), *last_gyro_t_,
+                            [](Timestamp t, const ImuSample& g) { return t < g.t_ns; });
+    for (; it != samples.end() && it->t_ns <= t_ns; ++it) {
+      const ImuSample& g = *it;
       frame_gyro_.add(g.gyro_radps);
       if (last_gyro_t_ && toSeconds(g.t_ns - *last_gyro_t_) > options_.filter.max_gyro_gap_s)
         ++stats_.gyro_gaps;
       last_gyro_t_ = g.t_ns;
       filter_.propagate(g);
-      pending_gyro_.pop_front();
     }
+    // What is left: the samples not yet fed, and the last kRecentGyroS before them for the
+    // scans' sweeps (deskewed).
+    if (last_gyro_t_) gyro_.dropBefore(*last_gyro_t_ - fromSeconds(kRecentGyroS));
+  }
+
+  GyroFrontOptions gyroFrontOptions() const {
+    GyroFrontOptions o;
+    o.max_jump_radps = options_.gyro_max_jump_radps;
+    o.max_spike_s = options_.gyro_max_spike_s;
+    return o;
   }
 
   // {scale of this step, scale of the uncorrected chain}; see the model above the class.
@@ -461,10 +402,11 @@ class KfEstimator final : public Estimator {
   // The scan made instantaneous at its stamp (options_.lidar_deskew; scans with per-beam times):
   // the body turned at the gyro's mean rate over the sweep, less the filter's bias. The kf's own
   // velocity (the chain's, over the last frames) is left out: it tightened the LiDAR's scale
-  // measurements on a straight row but biased them through a headland pivot (README, issue 42).
+  // measurements on a straight row but biased them through a headland pivot (README).
   LidarScan deskewed(const LidarScan& scan) const {
     if (!options_.lidar_deskew || !use_gyro_) return scan;
-    return deskewScanWithGyro(scan, recent_gyro_, filter_.gyroBias(), Vec3::Zero(), setup_.T_B_L);
+    return deskewScanWithGyro(scan, gyro_.samples(), filter_.gyroBias(), Vec3::Zero(),
+                              setup_.T_B_L);
   }
 
   const LidarScan* scanAt(Timestamp t_ns) const {
@@ -477,7 +419,7 @@ class KfEstimator final : public Estimator {
   KfEstimatorOptions options_;
   // Frontend stage.
   VoChain chain_;
-  FrontendGyro frontend_gyro_{kFrontendLeadFrames};
+  FrontendGyro frontend_gyro_;                // spikes left out as the filter's are
   std::optional<Timestamp> frontend_last_t_;  // the frontend's previous image
   // Estimator stage.
   KfFilter filter_;
@@ -485,7 +427,8 @@ class KfEstimator final : public Estimator {
   SE3 T_C_L_;
   double height_m_ = 0.0;
   bool use_gyro_ = false, use_lidar_ = false;
-  std::deque<ImuSample> pending_gyro_;
+  GyroFront gyro_;  // the samples not yet fed to the filter and the last kRecentGyroS before
+  bool said_spikes_ = false;
   std::optional<Timestamp> last_gyro_t_;
   GyroScatter frame_gyro_;  // the gyro samples fed for the current frame
   int still_frames_ = 0;    // frames with a zero-rate update
@@ -496,11 +439,10 @@ class KfEstimator final : public Estimator {
   };
   std::deque<HeldZeroRate> held_zero_rate_;  // still frames waiting for still_trim_s more
   std::deque<LidarScan> scans_;
-  static constexpr double kRecentGyroS = 1.0;  // gyro kept for the scans' sweeps (1-2 s), s
-  std::vector<ImuSample> recent_gyro_;
-  double ground_speed_mps_ = 0.0;  // last ground-plane speed (uncorrected)
-  double lidar_speed_mps_ = 0.0;   // last direct LiDAR speed (no camera height)
-  double log_c_ = 0.0;             // x = log(LiDAR / ground-plane scale)
+  static constexpr double kRecentGyroS = 1.0;  // gyro kept for the scans' sweeps, s
+  double ground_speed_mps_ = 0.0;              // last ground-plane speed (uncorrected)
+  double lidar_speed_mps_ = 0.0;               // last direct LiDAR speed (no camera height)
+  double log_c_ = 0.0;                         // x = log(LiDAR / ground-plane scale)
   double log_c_var_ = 0.0;
   bool scale_applied_ = false;  // c significant (see the model above the class)
   bool said_applied_ = false;

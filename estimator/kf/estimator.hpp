@@ -1,4 +1,4 @@
-// The `kf` baseline (DESIGN section 7, issue 6): the dissertation's system rebuilt — the `vo`
+// The `kf` baseline (DESIGN section 7): the dissertation's system rebuilt — the `vo`
 // chain, a Kalman filter fusing the gyro with the VO rotation (estimating the gyro bias), and the
 // LiDAR scale (ground-plane scale when nothing associates).
 #pragma once
@@ -6,56 +6,9 @@
 #include <memory>
 
 #include "estimator/estimator.hpp"
-#include "estimator/common/ground_plane.hpp"
-#include "estimator/kf/filter.hpp"
-#include "estimator/common/lidar_scale.hpp"
+#include "estimator/kf/options.hpp"
 
 namespace ovo::estimator {
-
-/// Tuning of the kf estimator: keys under "kf." (configs/estimator/kf.yaml), and the `vo` chain's
-/// camera height, speed limit and ground plane under "vo.".
-struct KfEstimatorOptions {
-  double camera_height_m = 0.0;         // above the ground; 0 = the rig's (fallback scale)
-  double max_speed_mps = 40.0;          // scales implying more are rejected
-  double lidar_scale_hold_s = 1.0;      // a LiDAR scale counts for frames this long after it, s
-  double scan_time_tolerance_s = 0.01;  // a scan belongs to a frame within this time, s
-  double lidar_baseline_s = 0.6;        // tracks are checked against the LiDAR over this span, s
-  double lidar_min_baseline_m = 0.1;    // shorter spans (turning in place, stops) are skipped, m
-  double lidar_max_rotation_deg = 5.0;  // ... and spans that turn more (their translation is the
-                                        // chain's weakest, and the scale follows it: -2.8 % on
-                                        // pure_rotation), deg
-  double scale_sigma0 = 0.3;            // prior on log(LiDAR/ground-plane scale) (camera height), 1
-  double scale_walk = 0.002;            // its random walk, 1/sqrt(s)
-  double scale_noise_floor = 0.05;      // smallest noise of one LiDAR measurement of it, 1
-  double scale_gate_chi2 = 16.0;        // LiDAR measurements with a larger innovation are dropped
-  double scale_deadband = 0.02;         // c is applied once |log c| exceeds this and 3 sigma, 1
-  bool refit_translation = false;       // true: translation direction re-fit to the fused rotation
-                                   // (measured worse than the RANSAC direction on the simulator)
-  bool zero_rate_update = true;  // standstill: the mean gyro rate measures the bias (ZARU)
-  double still_flow_deg = 0.15;  // standstill: median angle between the bearings of the reference
-                                 // and the current image below this, deg (tracked positions wander
-                                 // ~0.01 deg per frame with exposure changes even when still)
-  double still_gyro_std_radps = 0.005;  // ... and the frame's gyro samples this quiet, rad/s
-                                        // (2x the sample noise of a MEMS gyro at 200 Hz; ride
-                                        // vibration at cruise speed gives 0.004-0.01)
-  double still_trim_s = 0.3;  // a still frame's zero-rate update waits until the standstill has
-                              // lasted this long after it, and is dropped if the motion starts
-                              // first (the first moving frames look still: on steep_slope one of
-                              // them put its 19 mrad/s turn into the bias and kept it there), s
-  bool use_gyro = true;
-  bool use_lidar = true;
-  bool lidar_deskew = true;  // a swept scan (per-beam times) is made instantaneous at its stamp
-                             // before use: each beam turned back by the gyro's mean rate over
-                             // the sweep (estimator/common/lidar_deskew.hpp; no translation)
-  GroundPlaneOptions ground;
-  LidarScaleOptions lidar;
-  KfOptions filter;
-  bool operator==(const KfEstimatorOptions&) const = default;
-};
-
-/// The options from cfg; the filter's gyro noise figures are the rig's (setup) unless cfg sets
-/// them.
-KfEstimatorOptions readKfEstimatorOptions(const Config& cfg, const SensorSetup& setup);
 
 std::unique_ptr<Estimator> makeKfEstimator(const SensorSetup& setup, const Config& config);
 

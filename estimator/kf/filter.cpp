@@ -1,3 +1,4 @@
+// The kf's error-state Kalman filter on SO(3): gyro propagation, VO and zero-rate updates.
 #include "estimator/kf/filter.hpp"
 
 #include <Eigen/Cholesky>
@@ -235,6 +236,36 @@ bool KfFilter::applyCorrection(const Eigen::Matrix<double, kErrorDim, 3>& K,
   P_ = IKH * P_ * IKH.transpose() + K * R_noise * K.transpose();
   P_ = 0.5 * (P_ + P_.transpose()).eval();
   return true;
+}
+
+Mat3 predictGyroRotation(std::span<const ImuSample> samples, Timestamp t0_ns, Timestamp t1_ns,
+                         const Vec3& bias_radps, double max_gap_s) {
+  const Timestamp max_gap_ns = fromSeconds(max_gap_s);
+  Mat3 R_B0_B = Mat3::Identity();
+  const ImuSample* last = nullptr;
+  Timestamp t_now = t0_ns;
+  for (const ImuSample& sample : samples) {
+    if (sample.t_ns > t1_ns) break;
+    if (sample.t_ns > t_now) {
+      const double dt_s = toSeconds(sample.t_ns - t_now);
+      if (last && sample.t_ns - last->t_ns <= max_gap_ns) {
+        // Rate at the midpoint of [t_now, sample.t], linear between the two samples.
+        const double span_ns = static_cast<double>(sample.t_ns - last->t_ns);
+        const double t_mid_ns = 0.5 * static_cast<double>(t_now + sample.t_ns);
+        const double alpha =
+            span_ns > 0.0 ? (t_mid_ns - static_cast<double>(last->t_ns)) / span_ns : 1.0;
+        const Vec3 w = last->gyro_radps + alpha * (sample.gyro_radps - last->gyro_radps);
+        R_B0_B = R_B0_B * so3::exp((w - bias_radps) * dt_s);
+      } else if (!last && sample.t_ns - t_now <= max_gap_ns) {
+        R_B0_B = R_B0_B * so3::exp((sample.gyro_radps - bias_radps) * dt_s);
+      }
+      t_now = sample.t_ns;
+    }
+    last = &sample;
+  }
+  if (t1_ns > t_now && last && t1_ns - last->t_ns <= max_gap_ns)
+    R_B0_B = R_B0_B * so3::exp((last->gyro_radps - bias_radps) * toSeconds(t1_ns - t_now));
+  return R_B0_B;
 }
 
 }  // namespace ovo::estimator

@@ -1,4 +1,4 @@
-// The Kalman-filter baseline's rotation core (DESIGN section 7, issue 6): an error-state Kalman
+// The Kalman-filter baseline's rotation core (DESIGN section 7): an error-state Kalman
 // filter on SO(3) that fuses the gyro with the VO relative rotation and estimates the gyro bias.
 //
 // The dissertation's prototype filtered roll and two rates; this filters the full 3-axis rotation.
@@ -33,6 +33,7 @@
 
 #include <Eigen/Core>
 #include <optional>
+#include <span>
 
 #include "common/config.hpp"
 #include "common/types.hpp"
@@ -46,14 +47,14 @@ struct KfOptions {
   double gyro_bias_random_walk = 2.0e-5;  // sigma_bw, rad/s^2/sqrt(Hz)
   double init_rotation_sigma_rad = 0.01;  // prior on R_W_B at initialise(), rad
   double init_bias_sigma_radps = 0.03;    // prior on b_g at initialise(), rad/s
-  double vo_sigma0_rad = 5.0e-5;   // sigma_0: VO rotation noise at zero rotation, rad (the chain's
-                                   // frame-to-frame yaw error on the simulator: 3e-4, six times
-                                   // that, left the bias to the standstill, 0.2 mrad/s off)
+  double vo_sigma0_rad = 5.0e-5;   // sigma_0: VO rotation noise at zero rotation, rad (well below
+                                   // the chain's real frame-to-frame yaw error: at that error the
+                                   // bias was left to the standstills, and came out off)
   double vo_sigma_per_rad = 0.05;  // k_turn: extra VO noise per rad turned per frame, rad/rad
   double bias_freeze_rate_radps = 0.35;   // w_freeze: bias frozen above this turning rate, rad/s
   double vo_gate_chi2 = 16.0;             // reject VO updates with r^T S^-1 r above this; 0: off
-                                          // (25 let a stopping robot's low-parallax rotation
-                                          // through: 0.3 deg of yaw in one update)
+                                          // (a looser gate let a stopping robot's low-parallax
+                                          // rotation through as a jump of yaw in one update)
   double zero_rate_gate_chi2 = 0.0;       // ... and zero-rate updates; 0: off
   double zero_rate_sigma_radps = 1.0e-3;  // smallest noise of one zero-rate update, rad/s: a
                                           // standing robot's idle vibration, not only the
@@ -146,5 +147,12 @@ class KfFilter {
   double max_rate_since_clone_radps_ = 0.0;  // largest |w - b_g| since the last frame
   double last_sigma_vo_rad_ = 0.0;
 };
+
+/// The filter's gyro propagation from a frame at t0 to t1 (KfFilter::propagate for the samples up
+/// to t1, then KfFilter::propagateTo) with the bias held, as the rotation R_B0_B1 it adds: what
+/// the filter predicts for the matcher, from the frontend stage's copy of the gyro. samples: the
+/// last one at or before t0 and those after it.
+Mat3 predictGyroRotation(std::span<const ImuSample> samples, Timestamp t0_ns, Timestamp t1_ns,
+                         const Vec3& bias_radps, double max_gap_s);
 
 }  // namespace ovo::estimator

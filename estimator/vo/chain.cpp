@@ -1,3 +1,4 @@
+// The frame-to-frame chain shared by vo and kf: relative pose, unit-baseline points, scale.
 #include "estimator/vo/chain.hpp"
 
 #include <Eigen/Eigenvalues>

@@ -8,8 +8,8 @@
 #include <string>
 #include <vector>
 
-#include "estimator/estimator.hpp"
 #include "estimator/common/ground_plane.hpp"
+#include "estimator/estimator.hpp"
 #include "frontend/frontend.hpp"
 
 namespace ovo::estimator {

@@ -1,3 +1,4 @@
+// The vo estimator: the chain's steps scaled by the ground plane and chained.
 #include "estimator/vo/estimator.hpp"
 
 #include <spdlog/spdlog.h>

@@ -4,8 +4,8 @@
 
 #include <memory>
 
-#include "estimator/estimator.hpp"
 #include "estimator/common/ground_plane.hpp"
+#include "estimator/estimator.hpp"
 
 namespace ovo::estimator {
 

@@ -1,8 +1,6 @@
-// The window core's frame loop (window_core.hpp says what it does and where its parts live):
-// construction, the scans' intake, each frame from prediction to keyframe, the keyframe's
-// solve, marginalisation and reset, the frame records and the output. Its gyro side is in
-// window_core_gyro.cpp, the start in window_core_start.cpp, standstills in
-// window_core_standstill.cpp.
+// The window core's frame loop (core.hpp says what it does and where its parts live):
+// construction, the scans' intake, each frame from prediction to a new keyframe, the frame
+// records and the output.
 #include "estimator/window/core.hpp"
 
 #include <fmt/format.h>
@@ -47,25 +45,23 @@ WindowCore::WindowCore(const SensorSetup& setup, const WindowOptions& options,
       ground_options_(ground_options),
       use_gyro_(options.use_gyro && setup.has_gyro),
       use_lidar_(options.use_lidar && setup.has_lidar),
-      gyro_spikes_(options.gyro_max_jump_radps, options.gyro_max_spike_s),
+      gyro_(gyroFrontOptions(options)),
       scans_(options_),
       lidar_(setup_, options_),
-      initializer_(setup_, options_, ground_options, relpose_options,
-                   twoViewInlierRad(setup, options), lidar_, use_gyro_, use_lidar_,
-                   [this](const std::string& text) { note(text); }),
+      starter_(setup_, options_, ground_options, relpose_options, twoViewInlierRad(setup, options),
+               lidar_, use_gyro_, use_lidar_, [this](const std::string& text) { note(text); }),
       still_bias_(setup.gyro_noise_density,
                   options.gyro_bias_random_walk > 0.0 ? options.gyro_bias_random_walk
                                                       : setup.gyro_bias_random_walk,
                   options.standstill_trim_s) {
-  // Without a LiDAR the ground is the only scale after the start (KITTI 07: a start from a
-  // 12-point plane at 0.6x the scale was kept to the end with the tight gate).
+  // Without a LiDAR the ground is the only scale after the start: a looser gate, so that a start
+  // from a poor plane is corrected, not kept to the end as the tight gate keeps it.
   label_ground_options_ = ground_options;
   if (!use_lidar_) {
     options_.ground_scale_gate = options_.ground_scale_gate_no_lidar;
     // ... and a plane tilted against the body's up biases it: the keyframes' camera-height planes
     // and the ground chain's before the start use a tighter normal than vo.ground's 20 deg (the
-    // start's two-view plane keeps that: it needs any plane it can get). KITTI 07: --refine full
-    // scale -8.9 % -> -3.1 %; online ATE 1.44 -> 1.19 m.
+    // start's two-view plane keeps that: it needs any plane it can get).
     label_ground_options_.max_normal_deviation_deg = std::min(
         label_ground_options_.max_normal_deviation_deg, options_.ground_normal_max_deg_no_lidar);
   }
@@ -350,8 +346,8 @@ std::optional<PoseRefinement> WindowCore::refineAgainstMap(
       pred.rotation_prior ? std::optional<Mat3>(pred.T_W_B.linear()) : std::nullopt, pred.rot_sigma,
       model_, options_.motion_only_iterations, options_.outlier_angle_deg * kDegToRad);
   // Enough landmarks fit, and enough of those seen (tracks that crept far during a standstill
-  // leave 5-10 % that fit by chance; a good frame fits 60-95 % of them, the first frames after a
-  // stop on the simulated rows 22-45 %).
+  // leave a few that fit by chance; a good frame fits most of them, the first frames after a stop
+  // fewer).
   if (!ref || ref->num_inliers < options_.min_landmark_observations ||
       ref->num_inliers < options_.min_inlier_fraction * static_cast<double>(points_W.size()))
     return std::nullopt;
@@ -410,179 +406,6 @@ Mat2 WindowCore::pixelsPerRadian(const Vec3& bearing_C) const {
   // A Jacobian that has lost its rank (the model's edge) says nothing usable.
   return std::abs(J_t.determinant()) > 1e-6 * model_.focal_px * model_.focal_px ? J_t
                                                                                 : Mat2::Zero();
-}
-
-void WindowCore::associateLidar() {
-  if (!use_lidar_) return;
-  for (auto& k : map_.keyframes) lidar_.associate(*k, map_, true);
-}
-
-bool WindowCore::rescaleToLidar() {
-  if (!use_lidar_ || options_.lidar_rescale_ratio <= 0.0 || map_.keyframes.size() < 2) return false;
-  const auto ratio = lidar_.scaleRatio(map_);
-  if (!ratio || !(*ratio > 0.0)) return false;
-  if (std::abs(*ratio - 1.0) <= options_.lidar_rescale_ratio) {
-    scale_known_ = true;  // the LiDAR agrees with the window's scale
-    return false;
-  }
-  rescaleBy(1.0 / *ratio);
-  note("the LiDAR's ranges agreed on another scale than the window's: window rescaled to them");
-  return true;
-}
-
-bool WindowCore::rescaleToGround() {
-  // At least this many keyframes' planes, more than half within this fraction of their median;
-  // and a rescale within these bounds (a plane at a near-zero height is no scale).
-  constexpr int kMinKeyframes = 2;
-  constexpr double kAgreement = 0.1;
-  constexpr double kMinFactor = 0.01, kMaxFactor = 100.0;
-  const double h = heightCorrectedModel().camera_height_m;
-  if (scale_known_ || lidar_scale_ || last_solve_.lidar_factors > 0 || !(h > 0.0)) return false;
-  const auto height = agreedGroundHeight(ground_heights_, kMinKeyframes, kAgreement);
-  if (!height) return false;
-  const double factor = h / *height;
-  if (!(factor >= kMinFactor && factor <= kMaxFactor)) return false;
-  rescaleBy(factor);
-  note("the window started without a scale: rescaled to the ground plane's camera height");
-  return true;
-}
-
-void WindowCore::rescaleBy(double s) {
-  rescaleWindow(s, map_, gauge_, frames_, {last_T_W_B_, velocity_W_});
-  scale_known_ = true;
-  // A restart from the last still frame would start at its pose of the old scale.
-  still_reference_.reset();
-}
-
-void WindowCore::solveWindow() {
-  const auto t0 = std::chrono::steady_clock::now();
-  refreshGyroFactors();
-  auto kfs = windowKeyframes();
-  seedTerrain(kfs, model_);
-  auto factors = buildFactors(kfs, map_.landmarks, model_, gauge_, &ledger_, map_.time_offset_s,
-                              map_.camera_height_offset_m);
-  last_solve_ = {};
-  last_solve_.keyframes = static_cast<int>(kfs.size());
-  for (const auto& f : factors) last_solve_.lidar_factors += f.kind == FactorKind::kLidar;
-  std::unordered_set<TrackId> active;
-  for (const auto& f : factors)
-    if (f.kind == FactorKind::kBearing) active.insert(f.track);
-  last_solve_.landmarks = static_cast<int>(active.size());
-  SolveOptions so;
-  so.linear_solver = options_.linear_solver;
-  so.max_iterations = options_.max_iterations;
-  so.max_time_s = options_.max_solver_time_s;
-  so.time_offset = {map_.time_offset_s, options_.time_offset_max_s};
-  so.camera_height_offset = {map_.camera_height_offset_m,
-                             5.0 * model_.camera_height_offset_sigma_m};
-  const SolveSummary s = solveFactors(std::move(factors), kfs, map_.landmarks, model_, so);
-  last_solve_.residual_blocks = s.residual_blocks;
-  last_solve_.iterations = s.iterations;
-  removeOutliers(map_, model_, options_);
-  labelGround();
-  repropagateGyro(kfs);
-  last_solve_.solve_ms = msSince(t0);
-}
-
-void WindowCore::labelGround() {
-  ground_heights_ =
-      labelGroundLandmarks(map_.landmarks, heightCorrectedModel(), options_, label_ground_options_);
-}
-
-WindowModel WindowCore::heightCorrectedModel() const {
-  WindowModel model = model_;
-  if (estimatesCameraHeight(model_)) {
-    model.camera_height_m += map_.camera_height_offset_m[0];
-    model.camera_height_offset_sigma_m = 0.0;
-  }
-  return model;
-}
-
-void WindowCore::marginalize() {
-  while (static_cast<int>(map_.keyframes.size()) > options_.window_size) {
-    const auto t0 = std::chrono::steady_clock::now();
-    Keyframe* oldest = map_.keyframes.front().get();
-    const MarginalizationPlan plan = planMarginalization(map_, setup_.T_B_C, options_);
-    auto info = marginalizeOldest(map_, model_, gauge_, plan, &ledger_);
-    // The landmarks' last points seed the full refinement (kept only for it: they grow).
-    if (options_.refine == RefineMode::kFull) map_.rememberPoints(setup_.T_B_C);
-    frames_.keepPoses(*oldest);
-    countLidar(*oldest, stats_);
-    const int oldest_id = oldest->id;
-    if (options_.refine == RefineMode::kFull)
-      map_.archive.push_back(std::move(map_.keyframes.front()));
-    map_.keyframes.pop_front();
-    ledger_.forgetBefore(map_.keyframes.front()->id);
-    reanchorLandmarks(map_, oldest_id, plan);
-    if (info) {
-      gauge_.marginalization = info;
-      gauge_.kf_id = -1;
-    } else {  // fall back to a pose prior on the new oldest keyframe
-      gauge_.marginalization.reset();
-      gauge_.kf_id = map_.keyframes.front()->id;
-      gauge_.T_W_B = map_.keyframes.front()->pose();
-      gauge_.b_g = map_.keyframes.front()->bias();
-      note("marginalisation failed once: gauge fixed by a pose prior instead");
-    }
-    last_solve_.marginalize_ms += msSince(t0);
-  }
-  settleFrames();
-}
-
-void WindowCore::settleFrames() {
-  // A keyframe that left the window keeps its pose, unless the full refinement moves it at the
-  // end; frames are settled up to the window's oldest keyframe and the frames a restart may
-  // still place (from its reference on), and no nearer than kSettleAfterS (scans look back).
-  if (options_.refine == RefineMode::kFull || map_.empty()) return;
-  Timestamp before = std::min(map_.keyframes.front()->t_ns, last_t_ - fromSeconds(kSettleAfterS));
-  if (reference_) before = std::min(before, reference_->t_ns);
-  if (still_reference_) before = std::min(before, still_reference_->t_ns);
-  frames_.settle(before, [this](int id) { return keyframeState(id); });
-}
-
-void WindowCore::resetWindow() {
-  if (!map_.empty()) carried_bias_ = {map_.keyframes.back()->t_ns, map_.keyframes.back()->bias()};
-  if (options_.refine == RefineMode::kFull) map_.rememberPoints(setup_.T_B_C);
-  // Counted before any keyframe moves out: the residuals look up the landmarks' anchors.
-  for (const auto& kf : map_.keyframes) countLidar(*kf, stats_);
-  for (auto& kf : map_.keyframes) {
-    frames_.keepPoses(*kf);
-    if (options_.refine == RefineMode::kFull) map_.archive.push_back(std::move(kf));
-  }
-  map_.keyframes.clear();
-  map_.landmarks.clear();
-  gauge_ = {};
-  ledger_ = {};
-  initialized_ = false;
-  lidar_scale_ = false;
-  ++segment_;
-  reference_.reset();
-}
-
-void WindowCore::refineAll() {
-  std::vector<Keyframe*> kfs;
-  for (auto& kf : map_.archive) kfs.push_back(kf.get());
-  for (auto& kf : map_.keyframes) kfs.push_back(kf.get());
-  std::sort(kfs.begin(), kfs.end(),
-            [](const Keyframe* a, const Keyframe* b) { return a->id < b->id; });
-  if (kfs.size() < 2) return;
-  map_.rememberPoints(setup_.T_B_C);
-  // Each segment's first keyframe keeps the bias prior it started with, at its pose now.
-  std::vector<WindowGauge> gauges = segment_gauges_;
-  for (WindowGauge& g : gauges)
-    if (auto T_W_B = keyframePose(g.kf_id)) g.T_W_B = *T_W_B;
-  // The camera height as corrected online, held.
-  stats_.refine = refineKeyframes(kfs, map_.last_point_W, heightCorrectedModel(), gauges, options_,
-                                  label_ground_options_, map_.time_offset_s);
-  if (!stats_.refine->usable) note("full refinement failed: the online keyframe poses are kept");
-  for (const Keyframe* kf : kfs) frames_.keepPoses(*kf);
-}
-
-void WindowCore::finish() {
-  if (finished_) return;
-  finished_ = true;
-  if (options_.refine == RefineMode::kFull) refineAll();
-  for (const auto& kf : map_.keyframes) frames_.keepPoses(*kf);
 }
 
 Trajectory WindowCore::trajectory() const {

@@ -2,14 +2,15 @@
 // tracked bearings per frame (from the Frontend, or synthetic in tests), gyro samples and scans,
 // it predicts each frame's pose, places it against the window's landmarks, decides keyframes,
 // solves and marginalises, holds the pose at standstills and restarts after a tracking loss. Its
-// own code is in window_core.cpp (the frame loop), window_core_gyro.cpp (the gyro side),
-// window_core_start.cpp and window_core_standstill.cpp. The parts with a job of their own live
-// beside it: the scans (window_scans), the LiDAR ranges (window_lidar_ranges) and rescale
-// (window_rescale), the start (window_initializer), standstills (window_standstill), the keyframe
-// policy (window_keyframes), landmarks (window_landmarks), the factors, solve and
-// marginalisation (window_factors, window_solve, window_marginalize), the per-frame pose
-// (pose_refinement), the frame log the output is built from (window_frames) and the offline full
-// refinement (window_refine).
+// own code is in core.cpp (the frame loop), core_gyro.cpp (the gyro side), core_keyframe.cpp (the
+// keyframe step: solve, marginalisation, rescale, reset), core_standstill.cpp and starter.cpp
+// (the start). The parts with a job of their own live beside it in estimator/window/: the scans
+// (scans), LiDAR association (lidar_association), ranges (lidar_ranges), gate (lidar_gate) and
+// rescale (rescale), standstills (standstill), the keyframe policy (keyframe_policy), landmarks
+// (landmarks), the model and its factors (model, sighting, terrain, ledger, factors), the solve
+// and marginalisation (solve, marginalize), ground labels (ground_labels), the per-frame pose
+// (pose_refinement), the frame log the output is built from (frame_log) and the offline full
+// refinement (refine).
 #pragma once
 
 #include <map>
@@ -19,25 +20,27 @@
 #include <unordered_map>
 #include <vector>
 
-#include "estimator/estimator.hpp"
 #include "estimator/common/ground_plane.hpp"
-#include "estimator/common/gyro_buffer.hpp"
-#include "estimator/common/gyro_spike_filter.hpp"
+#include "estimator/common/gyro_front.hpp"
 #include "estimator/common/lidar_scale.hpp"
-#include "estimator/window/pose_refinement.hpp"
+#include "estimator/common/two_view.hpp"
+#include "estimator/estimator.hpp"
 #include "estimator/window/factors.hpp"
 #include "estimator/window/frame_log.hpp"
 #include "estimator/window/ground_chain.hpp"
-#include "estimator/common/two_view.hpp"
-#include "estimator/window/starter.hpp"
+#include "estimator/window/lidar_gate.hpp"
 #include "estimator/window/lidar_ranges.hpp"
 #include "estimator/window/map.hpp"
 #include "estimator/window/marginalize.hpp"
 #include "estimator/window/options.hpp"
+#include "estimator/window/pose_refinement.hpp"
 #include "estimator/window/refine.hpp"
 #include "estimator/window/scans.hpp"
+#include "estimator/window/sighting.hpp"
 #include "estimator/window/solve.hpp"
 #include "estimator/window/standstill.hpp"
+#include "estimator/window/starter.hpp"
+#include "estimator/window/terrain.hpp"
 
 namespace ovo::estimator {
 
@@ -141,7 +144,7 @@ class WindowCore {
   /// Pairs every window keyframe's landmarks with its scan's ranges (within the depth gate).
   void associateLidar();
   /// When the window's LiDAR ranges agree on a scale lidar_rescale_ratio off the window's, scales
-  /// the window to them (window_rescale.hpp).
+  /// the window to them (rescale.hpp).
   bool rescaleToLidar();
   /// A segment started without a scale (unit baseline) and without LiDAR factors takes the ground
   /// plane's once the window's keyframes agree on the camera's height in its units
@@ -222,15 +225,14 @@ class WindowCore {
   bool use_gyro_ = true;
   bool use_lidar_ = true;
 
-  GyroBuffer gyro_;
-  GyroSpikeFilter gyro_spikes_;
+  GyroFront gyro_;                              // the estimator stage's samples (spikes left out)
   static constexpr double kSettleAfterS = 5.0;  // frames are settled this long after at least, s
   static constexpr double kGyroKeepS = 30.0;    // gyro history kept at most (a long stop), s
   static constexpr double kReshiftS = 0.001;    // a keyframe's gyro interval is integrated again
                                                 // when the time offset moved this far from it, s
   ScanTimeline scans_;
   WindowLidar lidar_;
-  WindowInitializer initializer_;
+  WindowStarter starter_;
 
   WindowMap map_;
   WindowGauge gauge_;

@@ -1,4 +1,4 @@
-// The window core's gyro side: the samples it keeps (spikes left out, trimmed to what a later
+// The window core's gyro side, on its GyroFront: what the samples are trimmed to (what a later
 // interval may start from), their shift onto the images' timeline by the estimated time offset,
 // the preintegrations built from them (the frame's prediction, a keyframe's gyro factor and its
 // refresh when the offset moves or late samples fill a gap), and the output's way back onto the
@@ -29,14 +29,11 @@ double coastSeconds(double dt, double decay_per_s) {
 
 void WindowCore::addGyro(const ImuSample& sample) {
   if (!options_.use_gyro) return;
-  if (!gyro_spikes_.accept(sample)) {
+  if (gyro_.add(sample) == GyroFront::Intake::kSpike)
     note(fmt::format(
         "gyro: samples whose rate jumped by more than {} rad/s in one sample were left out as "
         "spikes",
         options_.gyro_max_jump_radps));
-    return;
-  }
-  gyro_.add(sample);
 }
 
 std::optional<Mat3> WindowCore::gyroRotation(Timestamp t0, Timestamp t1) const {
@@ -53,14 +50,14 @@ std::optional<factors::GyroPreintegration> WindowCore::preintegrate(Timestamp t0
                                                                     const Vec3& bias) const {
   // The image stamps run ahead of the gyro clock by the time offset: the gyro saw [t0, t1]
   // that much earlier.
-  const Timestamp shift = gyroShift();
-  return preintegrateOnGyroClock(t0 - shift, t1 - shift, bias);
+  if (!use_gyro_) return std::nullopt;
+  return gyro_.preintegrate(t0, t1, bias, gyroShift());
 }
 
 std::optional<factors::GyroPreintegration> WindowCore::preintegrateOnGyroClock(
     Timestamp t0, Timestamp t1, const Vec3& bias) const {
-  if (!use_gyro_ || gyro_.empty() || t1 <= t0) return std::nullopt;
-  return factors::GyroPreintegration(gyro_.around(t0, t1), t0, t1, bias, options_.gyro);
+  if (!use_gyro_) return std::nullopt;
+  return gyro_.preintegrate(t0, t1, bias);
 }
 
 std::optional<Mat3> WindowCore::predictRotationCurPrev(Timestamp t_ns) const {

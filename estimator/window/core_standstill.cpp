@@ -1,4 +1,4 @@
-// How the window core handles standstills: the test of each frame (window_standstill.hpp), the
+// How the window core handles standstills: the test of each frame (standstill.hpp), the
 // still frames (the pose held once the robot has settled; the still frame kept as a reference to
 // restart from), and the zero-rate update of the gyro bias when a still streak ends.
 #include <algorithm>
@@ -63,7 +63,7 @@ int WindowCore::processStill(const VisualFrame& frame, const Prediction& pred,
     e.tracked = true;
     if (canReference(frame.t_ns)) startReference(frame, e.T_W_B);
     if (ground_chain_) ground_chain_->restart(frame, e.T_W_B);
-    initializer_.standstill();
+    starter_.standstill();
   }
   return ref_kf;
 }

@@ -1,8 +1,9 @@
+// The window estimator: the frontend with the gyro prior feeding the window core.
 #include "estimator/window/estimator.hpp"
 
 #include <chrono>
 
-#include "estimator/common/gyro_buffer.hpp"
+#include "estimator/common/gyro_front.hpp"
 #include "estimator/window/core.hpp"
 #include "frontend/frontend.hpp"
 
@@ -21,6 +22,7 @@ class WindowEstimator final : public Estimator {
                   const frontend::FrontendOptions& frontend_options,
                   const GroundPlaneOptions& ground_options)
       : frontend_(setup.camera, frontend_options),
+        frontend_gyro_(kFrontendLeadFrames, gyroFrontOptions(options)),
         core_(setup, options, frontend_options.relative_pose, ground_options),
         R_B_C_(setup.T_B_C.linear()),
         gyro_options_(options.gyro),
@@ -85,7 +87,7 @@ class WindowEstimator final : public Estimator {
 
   // Frontend stage.
   frontend::Frontend frontend_;
-  FrontendGyro frontend_gyro_{kFrontendLeadFrames};
+  FrontendGyro frontend_gyro_;       // spikes left out as the core's are
   std::optional<Timestamp> last_t_;  // the frontend's previous image
   // Estimator stage.
   WindowCore core_;

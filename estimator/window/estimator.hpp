@@ -1,4 +1,4 @@
-// `--estimator window`, ovo's product (DESIGN section 7, issue 7): the fisheye Frontend feeds
+// `--estimator window`, ovo's product (DESIGN section 7): the fisheye Frontend feeds
 // tracked bearings to the sliding-window core (estimator/window/core.hpp), which fuses them with
 // gyro preintegration and LiDAR ranges in a Ceres keyframe window.
 #pragma once

@@ -1,3 +1,4 @@
+// Building the window's residual blocks, kind by kind, from its keyframes and landmarks.
 #include "estimator/window/factors.hpp"
 
 #include <ceres/loss_function.h>
@@ -6,6 +7,9 @@
 #include <cmath>
 
 #include "common/so3.hpp"
+#include "estimator/window/lidar_gate.hpp"
+#include "estimator/window/sighting.hpp"
+#include "estimator/window/terrain.hpp"
 #include "factors/bearing_factor.hpp"
 #include "factors/bearing_step_factor.hpp"
 #include "factors/bias_prior_factor.hpp"
@@ -25,135 +29,13 @@ double* gyroRotation(Keyframe& kf, const WindowModel& model) {
   return tiedRotations(model) ? kf.q_W_G : kf.q_W_B;
 }
 
-}  // namespace
+using Keyframes = std::vector<Keyframe*>;
+using Landmarks = std::unordered_map<TrackId, Landmark>;
+using KeyframesById = std::unordered_map<int, Keyframe*>;
 
-double anchorSigmaPx(const Keyframe& anchor, const TrackObservation& o, const WindowModel& model) {
-  const auto a = anchor.observations.find(o.track_id);
-  const int frames = a == anchor.observations.end() ? 0 : std::max(0, o.age - a->second.age);
-  return sightingSigmaPx(model.pixel_sigma_px * model.pixel_sigma_px, frames, model);
-}
-
-double sightingSigmaPx(double white_px2, double frames, const WindowModel& model) {
-  return std::sqrt(white_px2 + model.track_creep_px * model.track_creep_px * frames);
-}
-
-Mat2 sightingSqrtInformation(const TrackObservation& o, double sigma_px, const WindowModel& model) {
-  if (model.bearing_sigma_from_camera && !o.px_per_rad.isZero()) return o.px_per_rad / sigma_px;
-  return Mat2::Identity() * (model.focal_px / sigma_px);
-}
-
-bool FactorLedger::record(const FactorKey& key, Fate fate) {
-  if (!fates_.emplace(key, fate).second) {
-    ++refused_;
-    return false;
-  }
-  ++recorded_[{key.kind, fate}];
-  return true;
-}
-
-int FactorLedger::recorded(FactorKind kind, Fate fate) const {
-  const auto it = recorded_.find({kind, fate});
-  return it == recorded_.end() ? 0 : it->second;
-}
-
-std::optional<FactorLedger::Fate> FactorLedger::fate(const FactorKey& key) const {
-  const auto it = fates_.find(key);
-  if (it == fates_.end()) return std::nullopt;
-  return it->second;
-}
-
-void FactorLedger::forgetBefore(int oldest_kf_id) {
-  std::erase_if(fates_, [&](const auto& entry) { return entry.first.kf_id < oldest_kf_id; });
-}
-
-std::unordered_map<int, Keyframe*> keyframesById(const std::vector<Keyframe*>& keyframes) {
-  std::unordered_map<int, Keyframe*> out;
-  for (Keyframe* kf : keyframes) out[kf->id] = kf;
-  return out;
-}
-
-bool tiedRotations(const WindowModel& model) {
-  return model.use_gyro && model.vision_rotation_sigma_rad > 0.0;
-}
-
-WindowModel makeWindowModel(const SensorSetup& setup, const WindowOptions& options) {
-  WindowModel model;
-  const double pixel_sigma = options.pixel_sigma > 0.0 ? options.pixel_sigma : setup.pixel_sigma;
-  model.T_B_C = setup.T_B_C;
-  model.rolling_shutter_s = options.rolling_shutter ? setup.rolling_shutter_s : 0.0;
-  model.image_rows = camera::height(setup.camera);
-  model.focal_px = camera::focalPx(setup.camera);
-  model.pixel_sigma_px = pixel_sigma;
-  model.bearing_sigma_rad = pixel_sigma / model.focal_px;
-  model.bearing_sigma_from_camera = options.bearing_sigma_from_camera;
-  model.bearing_huber = options.bearing_huber_sigmas;
-  model.track_creep_px = options.track_creep_px;
-  model.bearing_steps = useBearingSteps(options.bearing_steps, options);
-  model.track_white_px = options.track_white_px;
-  model.lidar_ground_sigma_m = options.lidar_ground_sigma_m;
-  model.lidar_range_sigma_m =
-      options.lidar_range_sigma_m > 0.0 ? options.lidar_range_sigma_m : setup.lidar_range_sigma_m;
-  model.lidar_sigma_m = std::hypot(model.lidar_range_sigma_m, options.lidar_association_sigma_m);
-  model.lidar_huber = options.lidar_huber_sigmas;
-  model.lidar_cauchy = options.lidar_loss == RobustLoss::kCauchy;
-  model.bias_random_walk = options.gyro_bias_random_walk > 0.0 ? options.gyro_bias_random_walk
-                                                               : setup.gyro_bias_random_walk;
-  model.bias_prior_sigma_radps = options.gyro_bias_prior_sigma_radps;
-  model.vision_rotation_sigma_rad = options.vision_rotation_sigma_rad;
-  model.gauge_sigma_position_m = options.gauge_sigma_position_m;
-  model.gauge_sigma_rotation_rad = options.gauge_sigma_yaw_rad;
-  model.max_rho = 1.0 / (0.5 * options.landmark_min_depth_m);
-  model.use_gyro = options.use_gyro && setup.has_gyro;
-  model.time_offset_sigma_s = options.estimate_time_offset ? options.time_offset_sigma_s : 0.0;
-  if (options.use_ground_height && setup.camera_height_m && *setup.camera_height_m > 0.0) {
-    model.camera_height_m = *setup.camera_height_m;
-    model.ground_sigma_m = options.ground_height_sigma_m;
-    if (options.estimate_camera_height && options.use_lidar && setup.has_lidar)
-      model.camera_height_offset_sigma_m = options.camera_height_sigma_m;
-    model.terrain_planes = options.terrain_planes;
-    model.terrain_slope_walk = options.terrain_slope_walk;
-    model.terrain_height_walk = options.terrain_height_walk;
-  }
-  return model;
-}
-
-SE3 sightingExtrinsics(const Keyframe& kf, const TrackObservation& o, const WindowModel& model) {
-  if (!(model.rolling_shutter_s > 0.0) || !(model.image_rows > 0.0)) return model.T_B_C;
-  const double dt = model.rolling_shutter_s * std::clamp(o.px.y() / model.image_rows, 0.0, 1.0);
-  SE3 T_B0_B = SE3::Identity();  // the body at the row's time, in the keyframe's body frame
-  T_B0_B.linear() = so3::exp(kf.readout_rate_B * dt);
-  T_B0_B.translation() = kf.readout_velocity_B * dt;
-  return T_B0_B * model.T_B_C;
-}
-
-bool usesTerrain(const WindowModel& model) {
-  return model.terrain_planes && model.camera_height_m > 0.0;
-}
-
-void seedTerrain(const std::vector<Keyframe*>& keyframes, const WindowModel& model) {
-  if (!usesTerrain(model)) return;
-  const Keyframe* prev = nullptr;
-  for (Keyframe* kf : keyframes) {
-    if (!kf->terrain_set) {
-      if (prev != nullptr)
-        std::copy_n(prev->terrain, 3, kf->terrain);
-      else
-        factors::terrainBelow(kf->pose(), model.T_B_C, model.camera_height_m, kf->terrain);
-      kf->terrain_set = true;
-    }
-    prev = kf;
-  }
-}
-
-std::vector<FactorSpec> buildFactors(const std::vector<Keyframe*>& keyframes,
-                                     std::unordered_map<TrackId, Landmark>& landmarks,
-                                     const WindowModel& model, const WindowGauge& gauge,
-                                     const FactorLedger* ledger, double* time_offset_s,
-                                     double* camera_height_offset_m) {
-  std::vector<FactorSpec> out;
-  const auto kf_of = keyframesById(keyframes);
-
-  // Bearing and LiDAR factors of the landmarks.
+// Each landmark's sightings against its anchor (or, with bearing steps, against the previous one).
+void addBearingFactors(const Keyframes& keyframes, const KeyframesById& kf_of, Landmarks& landmarks,
+                       const WindowModel& model, std::vector<FactorSpec>& out) {
   for (auto& [id, lm] : landmarks) {
     auto anchor_it = kf_of.find(lm.anchor_kf);
     // (a point at infinity, rho 0, still gives its bearings: they hold the rotations)
@@ -206,37 +88,47 @@ std::vector<FactorSpec> buildFactors(const std::vector<Keyframe*>& keyframes,
       prev = kf;
     }
   }
-  if (usesTerrain(model)) {
-    for (auto& [id, lm] : landmarks) {
-      auto a = kf_of.find(lm.anchor_kf);
-      if (!lm.on_ground || a == kf_of.end() || !a->second->terrain_set || !(lm.rho[0] > 0.0))
-        continue;
-      FactorSpec f;
-      f.kind = FactorKind::kTerrain;
-      f.cost = std::make_unique<factors::TerrainPointFactor>(lm.bearing_anchor_C, model.T_B_C,
-                                                             model.ground_sigma_m);
-      f.loss = std::make_unique<ceres::HuberLoss>(model.ground_huber);
-      f.blocks = {a->second->q_W_B, a->second->p_W_B, lm.rho, a->second->terrain};
-      f.track = id;
-      f.kf_id = lm.anchor_kf;
-      out.push_back(std::move(f));
-    }
-    for (std::size_t k = 1; k < keyframes.size(); ++k) {
-      Keyframe* i = keyframes[k - 1];
-      Keyframe* j = keyframes[k];
-      if (!i->terrain_set || !j->terrain_set) continue;
-      const Vec3 ci = i->pose() * model.T_B_C.translation();
-      const Vec3 cj = j->pose() * model.T_B_C.translation();
-      FactorSpec w;
-      w.kind = FactorKind::kTerrain;
-      w.cost = std::make_unique<factors::TerrainWalkFactor>(
-          0.5 * (ci + cj), (cj - ci).norm(), model.terrain_slope_walk, model.terrain_height_walk);
-      w.blocks = {i->terrain, j->terrain};
-      w.kf_id = j->id;
-      out.push_back(std::move(w));
-    }
+}
+
+// Ground landmarks on their anchor's terrain plane, and the planes' walk between keyframes.
+void addTerrainFactors(const Keyframes& keyframes, const KeyframesById& kf_of, Landmarks& landmarks,
+                       const WindowModel& model, std::vector<FactorSpec>& out) {
+  if (!usesTerrain(model)) return;
+  for (auto& [id, lm] : landmarks) {
+    auto a = kf_of.find(lm.anchor_kf);
+    if (!lm.on_ground || a == kf_of.end() || !a->second->terrain_set || !(lm.rho[0] > 0.0))
+      continue;
+    FactorSpec f;
+    f.kind = FactorKind::kTerrain;
+    f.cost = std::make_unique<factors::TerrainPointFactor>(lm.bearing_anchor_C, model.T_B_C,
+                                                           model.ground_sigma_m);
+    f.loss = std::make_unique<ceres::HuberLoss>(model.ground_huber);
+    f.blocks = {a->second->q_W_B, a->second->p_W_B, lm.rho, a->second->terrain};
+    f.track = id;
+    f.kf_id = lm.anchor_kf;
+    out.push_back(std::move(f));
   }
-  const bool with_height = camera_height_offset_m != nullptr && estimatesCameraHeight(model);
+  for (std::size_t k = 1; k < keyframes.size(); ++k) {
+    Keyframe* i = keyframes[k - 1];
+    Keyframe* j = keyframes[k];
+    if (!i->terrain_set || !j->terrain_set) continue;
+    const Vec3 ci = i->pose() * model.T_B_C.translation();
+    const Vec3 cj = j->pose() * model.T_B_C.translation();
+    FactorSpec w;
+    w.kind = FactorKind::kTerrain;
+    w.cost = std::make_unique<factors::TerrainWalkFactor>(
+        0.5 * (ci + cj), (cj - ci).norm(), model.terrain_slope_walk, model.terrain_height_walk);
+    w.blocks = {i->terrain, j->terrain};
+    w.kf_id = j->id;
+    out.push_back(std::move(w));
+  }
+}
+
+// Ground landmarks' depth below their anchor camera (the camera height, corrected by the
+// camera_height_offset_m state when given); true when a factor uses that state.
+bool addGroundFactors(const KeyframesById& kf_of, Landmarks& landmarks, const WindowModel& model,
+                      double* camera_height_offset_m, std::vector<FactorSpec>& out) {
+  const bool with_height = camera_height_offset_m != nullptr;
   bool height_used = false;
   if (model.camera_height_m > 0.0) {
     for (auto& [id, lm] : landmarks) {
@@ -259,6 +151,12 @@ std::vector<FactorSpec> buildFactors(const std::vector<Keyframe*>& keyframes,
       out.push_back(std::move(f));
     }
   }
+  return height_used;
+}
+
+// Every keyframe's LiDAR ranges to the landmarks it measured.
+void addLidarFactors(const Keyframes& keyframes, const KeyframesById& kf_of, Landmarks& landmarks,
+                     const WindowModel& model, std::vector<FactorSpec>& out) {
   for (Keyframe* kf : keyframes) {
     for (const LidarAssociation& a : kf->lidar) {
       auto lm_it = landmarks.find(a.track_id);
@@ -288,9 +186,13 @@ std::vector<FactorSpec> buildFactors(const std::vector<Keyframe*>& keyframes,
       out.push_back(std::move(f));
     }
   }
+}
 
-  // Gyro and bias factors between consecutive keyframes of one segment.
-  const bool with_offset = time_offset_s != nullptr && estimatesTimeOffset(model);
+// Gyro and bias factors between consecutive keyframes of one segment (with the time offset as a
+// state when time_offset_s is given); true when a factor uses that state.
+bool addGyroFactors(const Keyframes& keyframes, const WindowModel& model, double* time_offset_s,
+                    std::vector<FactorSpec>& out) {
+  const bool with_offset = time_offset_s != nullptr;
   bool offset_used = false;
   if (model.use_gyro) {
     for (std::size_t k = 1; k < keyframes.size(); ++k) {
@@ -320,6 +222,12 @@ std::vector<FactorSpec> buildFactors(const std::vector<Keyframe*>& keyframes,
       out.push_back(std::move(w));
     }
   }
+  return offset_used;
+}
+
+// The vision orientations tied to the gyro chain's, and the standstills' zero-rate updates.
+void addRotationTieAndZeroRateFactors(const Keyframes& keyframes, const WindowModel& model,
+                                      std::vector<FactorSpec>& out) {
   if (tiedRotations(model)) {
     for (Keyframe* kf : keyframes) {
       FactorSpec t;
@@ -342,8 +250,11 @@ std::vector<FactorSpec> buildFactors(const std::vector<Keyframe*>& keyframes,
       out.push_back(std::move(z));
     }
   }
+}
 
-  // Gauge.
+// The gauge keyframe's pose prior and bias prior.
+void addGaugeFactors(const KeyframesById& kf_of, const WindowModel& model, const WindowGauge& gauge,
+                     std::vector<FactorSpec>& out) {
   if (auto it = kf_of.find(gauge.kf_id); it != kf_of.end()) {
     Keyframe* kf = it->second;
     FactorSpec p;
@@ -366,6 +277,28 @@ std::vector<FactorSpec> buildFactors(const std::vector<Keyframe*>& keyframes,
       out.push_back(std::move(b));
     }
   }
+}
+
+}  // namespace
+
+std::vector<FactorSpec> buildFactors(const std::vector<Keyframe*>& keyframes,
+                                     std::unordered_map<TrackId, Landmark>& landmarks,
+                                     const WindowModel& model, const WindowGauge& gauge,
+                                     const FactorLedger* ledger, double* time_offset_s,
+                                     double* camera_height_offset_m) {
+  std::vector<FactorSpec> out;
+  const auto kf_of = keyframesById(keyframes);
+  addBearingFactors(keyframes, kf_of, landmarks, model, out);
+  addTerrainFactors(keyframes, kf_of, landmarks, model, out);
+  const bool with_height = camera_height_offset_m != nullptr && estimatesCameraHeight(model);
+  const bool height_used = addGroundFactors(kf_of, landmarks, model,
+                                            with_height ? camera_height_offset_m : nullptr, out);
+  addLidarFactors(keyframes, kf_of, landmarks, model, out);
+  const bool with_offset = time_offset_s != nullptr && estimatesTimeOffset(model);
+  const bool offset_used =
+      addGyroFactors(keyframes, model, with_offset ? time_offset_s : nullptr, out);
+  addRotationTieAndZeroRateFactors(keyframes, model, out);
+  addGaugeFactors(kf_of, model, gauge, out);
   // The run's scalar states, each about the rig's value, in every solve that holds the state (a
   // factor of it, or the marginalisation prior): a plausibility bound that holds the time offset
   // while the motion does not show it (a constant rate), and the camera height while the LiDAR
@@ -398,29 +331,6 @@ std::vector<FactorSpec> buildFactors(const std::vector<Keyframe*>& keyframes,
       return f.kind != FactorKind::kMarginal && ledger->fate(f.key()).has_value();
     });
   return out;
-}
-
-double lidarSigma(const LidarAssociation& a, const WindowModel& model) {
-  if (a.ground_up_L.isZero()) return model.lidar_sigma_m;
-  return std::hypot(model.lidar_range_sigma_m * a.ground_sin, model.lidar_ground_sigma_m);
-}
-
-std::optional<double> lidarResidualM(const LidarAssociation& a, const Vec3& p_W,
-                                     const Keyframe& kf) {
-  const SE3 T_L_W = (kf.pose() * kf.T_B_L).inverse();
-  const auto value = factors::lidarMeasuredValue(T_L_W * p_W, a.planar, a.ground_up_L);
-  if (!value) return std::nullopt;
-  return *value - a.range_m;
-}
-
-bool lidarOutlier(const LidarAssociation& a, const Vec3& p_W, const Keyframe& kf,
-                  const WindowModel& model, double gate_sigmas, double gate_fraction) {
-  const auto residual = lidarResidualM(a, p_W, kf);
-  if (!residual) return true;  // the landmark sits on the LiDAR
-  const double gate_sigma = gate_sigmas * lidarSigma(a, model);
-  const double gate =
-      a.ground_up_L.isZero() ? std::max(gate_sigma, gate_fraction * a.range_m) : gate_sigma;
-  return std::abs(*residual) > gate;
 }
 
 }  // namespace ovo::estimator

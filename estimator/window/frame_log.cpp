@@ -1,3 +1,4 @@
+// The window's frame log: records, settling, and the output trajectories.
 #include "estimator/window/frame_log.hpp"
 
 #include <algorithm>

@@ -1,3 +1,4 @@
+// The ground chain: positions before the start from short baselines and the ground plane.
 #include "estimator/window/ground_chain.hpp"
 
 #include <algorithm>

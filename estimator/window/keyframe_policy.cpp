@@ -1,3 +1,4 @@
+// When a frame becomes a keyframe, and which of its tracks it keeps.
 #include "estimator/window/keyframe_policy.hpp"
 
 #include <algorithm>

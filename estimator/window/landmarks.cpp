@@ -1,9 +1,11 @@
+// New landmarks from a keyframe's tracks, and the outliers removed after a solve.
 #include "estimator/window/landmarks.hpp"
 
 #include <cmath>
 #include <vector>
 
-#include "estimator/window/solve.hpp"
+#include "estimator/window/lidar_gate.hpp"
+#include "estimator/window/sighting.hpp"
 #include "frontend/triangulation.hpp"
 
 namespace ovo::estimator {

@@ -1,3 +1,4 @@
+// Scan beams projected into the image and paired with tracked observations.
 #include "estimator/window/lidar_association.hpp"
 
 #include <algorithm>

@@ -1,3 +1,4 @@
+// Keyframes' LiDAR ranges to landmarks, their scale ratio, and the start's scale vote.
 #include "estimator/window/lidar_ranges.hpp"
 
 #include <algorithm>
@@ -120,6 +121,71 @@ std::optional<double> WindowLidar::scaleRatio(const WindowMap& map) const {
       2 * agree.size() < ratios.size() || tracks.size() < 3)
     return std::nullopt;
   return upperMedian(agree);
+}
+
+LidarScaleVote voteLidarScale(std::vector<double> ratios, std::optional<double> ground_scale,
+                              int min_associations, bool can_put_off) {
+  using Outcome = LidarScaleVote::Outcome;
+  LidarScaleVote vote;
+  std::sort(ratios.begin(), ratios.end());
+  // group_end[i]: one past the last ratio within 20 % of ratios[i].
+  std::vector<std::size_t> group_end(ratios.size());
+  for (std::size_t i = 0, j = 0; i < ratios.size(); ++i) {
+    while (j < ratios.size() && ratios[j] <= ratios[i] * 1.2) ++j;
+    group_end[i] = j;
+  }
+  const auto size = [&](std::size_t i) { return group_end[i] - i; };
+  const auto median = [&](std::size_t i) { return ratios[i + size(i) / 2]; };
+  const auto agreesWithGround = [&](double ratio) {
+    return ground_scale && ratio <= 1.2 * *ground_scale && *ground_scale <= 1.2 * ratio;
+  };
+  std::size_t best_lo = 0, best_n = 0;
+  for (std::size_t i = 0; i < ratios.size(); ++i)
+    if (size(i) > best_n) best_n = size(i), best_lo = i;
+  if (best_n == 0) return vote;
+  std::size_t second_n = 0;
+  for (std::size_t i = 0; i < ratios.size(); ++i)
+    if (group_end[i] <= best_lo || i >= best_lo + best_n) second_n = std::max(second_n, size(i));
+  const auto bigEnough = [&](std::size_t n) { return static_cast<int>(n) >= min_associations / 2; };
+  // The largest group the ground plane agrees with, of at least half the largest's size or
+  // min_associations / 2.
+  std::size_t ground_lo = 0, ground_n = 0;
+  for (std::size_t i = 0; i < ratios.size(); ++i)
+    if ((2 * size(i) >= best_n || bigEnough(size(i))) && size(i) > ground_n &&
+        agreesWithGround(median(i)))
+      ground_n = size(i), ground_lo = i;
+  const bool enough = bigEnough(best_n) && static_cast<int>(ratios.size()) >= min_associations &&
+                      best_n >= ratios.size() / 3;
+  const bool ground_disagrees = ground_scale && !agreesWithGround(median(best_lo));
+  const bool tie = 2 * second_n >= best_n ||
+                   (ground_disagrees && (enough || (ground_n > 0 && bigEnough(ground_n))));
+  if (!tie) {
+    if (enough) {
+      vote.outcome = Outcome::kAgreed;
+      vote.scale = median(best_lo);
+    }
+    return vote;
+  }
+  if (ground_n > 0) {
+    vote.outcome = Outcome::kGroundSettled;
+    vote.scale = median(ground_lo);
+    return vote;
+  }
+  if (can_put_off) {
+    vote.outcome = Outcome::kPutOff;
+    return vote;
+  }
+  if (ground_scale) {
+    vote.outcome = Outcome::kOverruled;
+    return vote;
+  }
+  for (std::size_t i = 0; i < ratios.size(); ++i)
+    if (2 * size(i) >= best_n) {
+      vote.scale = median(i);
+      break;
+    }
+  vote.outcome = Outcome::kForced;
+  return vote;
 }
 
 }  // namespace ovo::estimator

@@ -1,6 +1,7 @@
 // The window's LiDAR ranges to its landmarks: beams near tracks (the candidates a keyframe keeps),
 // the ranges each keyframe's scan measures to the landmarks it sees, their association with the
-// landmarks (gated by depth), and the scale the ranges agree on (for a rescale).
+// landmarks (gated by depth), the scale the ranges agree on (for a rescale), and the vote on the
+// start's scale from range ratios.
 #pragma once
 
 #include <optional>
@@ -46,5 +47,33 @@ class WindowLidar {
   const SensorSetup& setup_;
   const WindowOptions& options_;
 };
+
+/// The initialisation's metric scale from LiDAR range ratios (beam range over the unit-baseline
+/// distance of the track it lands next to). Ratios are grouped by agreement within 20 %: the
+/// largest group wins unless a group at least half its size disagrees with it (beams through a
+/// canopy gap onto the next row give a consistent wrong ratio), or the ground plane's scale
+/// disagrees with it (beams that pass under a canopy's lower edge land next to the canopy's
+/// features and agree with each other on a ratio several times too large; with a narrow camera
+/// they can outnumber the beams on the ground). The ground plane settles such a tie with the
+/// largest group it agrees with, of at least half the largest's size or min_associations / 2;
+/// otherwise the tie is put off while allowed, then the ground plane's own scale is taken when
+/// there is one (the LiDAR is overruled), else the nearest surfaces (smallest ratio: a gap only
+/// reads too far).
+struct LidarScaleVote {
+  enum class Outcome {
+    kAgreed,         // the largest group, unchallenged
+    kGroundSettled,  // a tie settled by the ground plane
+    kPutOff,         // a tie: wait for a later frame
+    kForced,         // a tie that could not wait, without a ground plane: the nearest surfaces
+    kOverruled,      // a tie that could not wait, no group agreeing with the ground plane: no
+                     // LiDAR scale, the ground plane's is to be used
+    kTooFew,         // too few ratios, or no group big enough: no LiDAR scale
+  };
+  Outcome outcome = Outcome::kTooFew;
+  std::optional<double> scale;  // the chosen group's median ratio (kAgreed, kGroundSettled,
+                                // kForced)
+};
+LidarScaleVote voteLidarScale(std::vector<double> ratios, std::optional<double> ground_scale,
+                              int min_associations, bool can_put_off);
 
 }  // namespace ovo::estimator

@@ -1,3 +1,4 @@
+// The window's keyframes and landmarks: poses, points, lookups, gyro re-propagation.
 #include "estimator/window/map.hpp"
 
 #include <algorithm>
@@ -73,6 +74,20 @@ int WindowMap::observationCount(TrackId id) const {
 void WindowMap::rememberPoints(const SE3& T_B_C) {
   for (const auto& [id, lm] : landmarks)
     if (auto p = pointW(lm, T_B_C)) last_point_W[id] = *p;
+}
+
+void repropagateGyro(const std::vector<Keyframe*>& keyframes) {
+  for (std::size_t k = 1; k < keyframes.size(); ++k) {
+    auto& pi = keyframes[k]->preint_from_prev;
+    if (pi && pi->needsRepropagation(keyframes[k - 1]->bias(), 0.002))
+      pi->repropagate(keyframes[k - 1]->bias());
+  }
+}
+
+std::unordered_map<int, Keyframe*> keyframesById(const std::vector<Keyframe*>& keyframes) {
+  std::unordered_map<int, Keyframe*> out;
+  for (Keyframe* kf : keyframes) out[kf->id] = kf;
+  return out;
 }
 
 }  // namespace ovo::estimator

@@ -88,7 +88,7 @@ struct Keyframe {
   std::optional<ZeroRate> zero_rate;
   /// The body's motion while a rolling shutter reads the image out (the keyframe's pose is its
   /// first row's): angular rate and velocity in the body frame at the keyframe (zero with a
-  /// global shutter; see sightingExtrinsics in window_factors.hpp).
+  /// global shutter; see sightingExtrinsics in sighting.hpp).
   Vec3 readout_rate_B = Vec3::Zero();
   Vec3 readout_velocity_B = Vec3::Zero();
 
@@ -142,5 +142,12 @@ class WindowMap {
   /// Remembers the current world points of all landmarks (for the refinement's initial values).
   void rememberPoints(const SE3& T_B_C);
 };
+
+/// Re-propagates the gyro preintegrations (keyframes in time order) whose bias linearisation is
+/// now more than 0.002 rad/s from the previous keyframe's estimate.
+void repropagateGyro(const std::vector<Keyframe*>& keyframes);
+
+/// The keyframes by id.
+std::unordered_map<int, Keyframe*> keyframesById(const std::vector<Keyframe*>& keyframes);
 
 }  // namespace ovo::estimator

@@ -1,3 +1,4 @@
+// Marginalising the oldest keyframe: the landmarks' fates and the linear prior.
 #include "estimator/window/marginalize.hpp"
 
 #include <algorithm>

@@ -1,3 +1,4 @@
+// Reading the window's options from a configuration.
 #include "estimator/window/options.hpp"
 
 namespace ovo::estimator {

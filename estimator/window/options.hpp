@@ -1,9 +1,10 @@
-// Tuning of the sliding-window estimator (`--estimator window`, DESIGN section 7, issue 7). Keys
+// Tuning of the sliding-window estimator (`--estimator window`, DESIGN section 7). Keys
 // under "window." (readWindowOptions); gyro preintegration under "gyro.", the frontend's own
 // blocks ("frontend.", "ransac.") are read by their readers.
 #pragma once
 
 #include "common/config.hpp"
+#include "estimator/common/gyro_front.hpp"
 #include "factors/gyro_preintegration.hpp"
 
 namespace ovo::estimator {
@@ -217,6 +218,12 @@ struct WindowOptions {
 
 /// Reads every "window." key (and "gyro." through factors::readGyroPreintegrationOptions).
 WindowOptions readWindowOptions(const Config& config);
+
+/// The window's gyro front (the estimator stage's and the frontend's matching prior's): its spike
+/// filter and preintegration.
+inline GyroFrontOptions gyroFrontOptions(const WindowOptions& options) {
+  return {options.gyro_max_jump_radps, options.gyro_max_spike_s, options.gyro};
+}
 
 /// Whether bearing steps are used where `requested` (bearing_steps online, refine_bearing_steps in
 /// the refinement): they model the tracks' creep, so without one (track_creep_px 0) the sightings

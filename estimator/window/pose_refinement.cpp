@@ -1,3 +1,4 @@
+// Motion-only refinement of one frame's pose against fixed landmarks.
 #include "estimator/window/pose_refinement.hpp"
 
 #include <ceres/ceres.h>

@@ -1,3 +1,4 @@
+// The offline full refinement of every keyframe of the run.
 #include "estimator/window/refine.hpp"
 
 #include <algorithm>
@@ -7,6 +8,9 @@
 
 #include "common/stats.hpp"
 #include "estimator/estimator.hpp"
+#include "estimator/window/lidar_gate.hpp"
+#include "estimator/window/sighting.hpp"
+#include "estimator/window/terrain.hpp"
 #include "factors/bias_prior_factor.hpp"
 #include "factors/pose_prior_factor.hpp"
 #include "frontend/triangulation.hpp"
@@ -64,58 +68,6 @@ std::optional<double> initialRho(const std::vector<const Keyframe*>& seen,
 
 }  // namespace
 
-std::optional<double> agreedGroundHeight(std::vector<double> heights, int min_keyframes,
-                                         double agreement) {
-  if (static_cast<int>(heights.size()) < std::max(1, min_keyframes)) return std::nullopt;
-  const double median = upperMedian(heights);
-  const auto agreeing = std::count_if(heights.begin(), heights.end(), [&](double x) {
-    return std::abs(x - median) <= agreement * median;
-  });
-  if (2 * agreeing <= static_cast<std::ptrdiff_t>(heights.size())) return std::nullopt;
-  return median;
-}
-
-std::vector<double> labelGroundLandmarks(std::unordered_map<TrackId, Landmark>& landmarks,
-                                         const WindowModel& model, const WindowOptions& options,
-                                         const GroundPlaneOptions& ground_options) {
-  std::vector<double> heights;
-  if (!(model.camera_height_m > 0.0)) return heights;
-  const double h = model.camera_height_m;
-  const Vec3 up_prior_C = bodyUpIn(model.T_B_C);
-  const double min_down = std::sin(options.ground_min_depression_deg * kDegToRad);
-  std::map<int, std::vector<Landmark*>> by_anchor;  // (in the order of the keyframe ids)
-  for (auto& [id, lm] : landmarks)
-    if (lm.rho[0] > 1e-6)  // (not the points at infinity)
-      by_anchor[lm.anchor_kf].push_back(&lm);
-  for (auto& [kf_id, lms] : by_anchor) {
-    std::vector<Vec3> points_C;
-    for (const Landmark* lm : lms) points_C.push_back(lm->bearing_anchor_C / lm->rho[0]);
-    const auto plane = fitGroundPlane(points_C, up_prior_C, ground_options);
-    if (plane && plane->height > 0.0) heights.push_back(plane->height);
-    const bool plane_ok = plane && std::abs(plane->height - h) <= options.ground_scale_gate * h;
-    for (std::size_t k = 0; k < lms.size(); ++k) {
-      Landmark& lm = *lms[k];
-      const Vec3& p_C = points_C[k];
-      if (lm.on_ground) {  // keeps its factor while it stays near the plane it was given
-        const double depth_below = -lm.ground_up_C.dot(p_C);
-        if (std::abs(depth_below - h) > 2.0 * options.ground_inlier_fraction * h)
-          lm.on_ground = false;
-        continue;
-      }
-      if (!plane_ok) continue;
-      const double down = -plane->up_C.dot(lm.bearing_anchor_C);
-      const double depth_below = -plane->up_C.dot(p_C);
-      const double dist = (p_C + depth_below * plane->up_C).norm();  // along the ground
-      if (down < min_down || dist > options.ground_max_distance_heights * h ||
-          std::abs(depth_below - plane->height) > options.ground_inlier_fraction * h)
-        continue;
-      lm.on_ground = true;
-      lm.ground_up_C = plane->up_C;
-    }
-  }
-  return heights;
-}
-
 RefineInfo refineKeyframes(const std::vector<Keyframe*>& keyframes,
                            const std::unordered_map<TrackId, Vec3>& points_W,
                            const WindowModel& window_model,
@@ -150,9 +102,8 @@ RefineInfo refineKeyframes(const std::vector<Keyframe*>& keyframes,
   }
 
   // Landmark pieces: a track's sightings in one segment, cut after refine_max_span_frames frames
-  // unless bearing steps model the creep (measured on the creeping synthetic rows, seeds 2..6:
-  // with steps, batch RMSE sum 0.053 m uncut, 0.085 cut at 100 frames, 0.102 at 40). Pieces get
-  // fresh ids (the batch copies observe pieces, not tracks).
+  // unless bearing steps model the creep (with steps the batch does better with the tracks uncut).
+  // Pieces get fresh ids (the batch copies observe pieces, not tracks).
   std::map<TrackId, std::vector<int>> sightings;  // track -> keyframe indices, time order
   for (std::size_t k = 0; k < keyframes.size(); ++k)
     for (const auto& [id, o] : keyframes[k]->observations)

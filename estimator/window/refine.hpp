@@ -1,6 +1,6 @@
 // The offline full refinement (`--refine full`, DESIGN section 7): every keyframe of the run in one
 // batch, with landmarks rebuilt from the tracks in pieces of bounded span, robust re-weighting and
-// outlier removal between passes; plus the ground labelling it shares with the online window.
+// outlier removal between passes.
 #pragma once
 
 #include <optional>
@@ -8,28 +8,14 @@
 #include <unordered_map>
 #include <vector>
 
-#include "estimator/estimator.hpp"
 #include "estimator/common/ground_plane.hpp"
+#include "estimator/estimator.hpp"
+#include "estimator/window/ground_labels.hpp"
 #include "estimator/window/map.hpp"
 #include "estimator/window/options.hpp"
 #include "estimator/window/solve.hpp"
 
 namespace ovo::estimator {
-
-/// Camera-height labels (DESIGN section 6): per anchor keyframe, the plane fitted to the landmarks
-/// it anchors; its inliers near the camera get the factor when the plane agrees with the camera
-/// height, and a labelled landmark keeps it while it stays within twice the inlier band. Returns
-/// the planes' heights over the ground in the landmarks' units, gate or not (agreedGroundHeight).
-std::vector<double> labelGroundLandmarks(std::unordered_map<TrackId, Landmark>& landmarks,
-                                         const WindowModel& model, const WindowOptions& options,
-                                         const GroundPlaneOptions& ground_options);
-
-/// The camera's height over the ground in the window's units, for a window whose scale is not
-/// known (started at a unit baseline), from the anchor keyframes' plane heights
-/// (labelGroundLandmarks): their upper median, when at least `min_keyframes` give a plane and more
-/// than half of them lie within `agreement` (a fraction) of it; nullopt otherwise.
-std::optional<double> agreedGroundHeight(std::vector<double> heights, int min_keyframes,
-                                         double agreement);
 
 /// Re-optimises `keyframes` (time order, their current poses as the initial values) with every
 /// factor the run gathered. A track's sightings become landmarks spanning at most

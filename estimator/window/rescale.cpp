@@ -1,3 +1,4 @@
+// Rescaling every length-carrying state of the window about its oldest keyframe.
 #include "estimator/window/rescale.hpp"
 
 #include <vector>

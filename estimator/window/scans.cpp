@@ -1,3 +1,4 @@
+// The scan that goes with a frame, and the LiDAR's pose when it took it.
 #include "estimator/window/scans.hpp"
 
 #include <cstdlib>

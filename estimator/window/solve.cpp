@@ -1,3 +1,4 @@
+// The window's Ceres solve, with the scalar states bounded and every state restored on failure.
 #include "estimator/window/solve.hpp"
 
 #include <ceres/ceres.h>
@@ -119,50 +120,6 @@ SolveSummary solveFactors(std::vector<FactorSpec> factors, const std::vector<Key
   }
   summary.usable = true;
   return summary;
-}
-
-void repropagateGyro(const std::vector<Keyframe*>& keyframes) {
-  for (std::size_t k = 1; k < keyframes.size(); ++k) {
-    auto& pi = keyframes[k]->preint_from_prev;
-    if (pi && pi->needsRepropagation(keyframes[k - 1]->bias(), 0.002))
-      pi->repropagate(keyframes[k - 1]->bias());
-  }
-}
-
-std::vector<ObservationError> observationErrors(const std::vector<Keyframe*>& keyframes,
-                                                const std::unordered_map<TrackId, Landmark>& lms,
-                                                const WindowModel& model) {
-  std::vector<ObservationError> out;
-  const auto kf_of = keyframesById(keyframes);
-  const Mat3 R_B_C = model.T_B_C.linear();
-  const Vec3 t_B_C = model.T_B_C.translation();
-  for (const auto& [id, lm] : lms) {
-    auto a = kf_of.find(lm.anchor_kf);
-    if (a == kf_of.end() || !(lm.rho[0] >= 0.0)) continue;
-    const Keyframe& anchor = *a->second;
-    for (const Keyframe* kf : keyframes) {
-      if (kf == &anchor) continue;
-      auto obs = kf->observations.find(id);
-      if (obs == kf->observations.end()) continue;
-      const TrackObservation& o = obs->second;
-      const auto u = factors::predictBearing(lm.bearing_anchor_C, R_B_C, t_B_C, anchor.q_W_B,
-                                             anchor.p_W_B, kf->q_W_B, kf->p_W_B, lm.rho[0], false);
-      if (!u) {
-        out.push_back({kf->id, id, M_PI, std::numeric_limits<double>::infinity()});
-        continue;
-      }
-      const double angle = std::acos(std::clamp(u->u.dot(o.bearing_C), -1.0, 1.0));
-      // In the sighting's own sigmas: its tangent-plane offset whitened as its factor would be
-      // against the anchor (pixel noise and creep since the anchor, through the camera).
-      const Mat2 W = sightingSqrtInformation(o, anchorSigmaPx(anchor, o, model), model);
-      const Vec2 r = W * (factors::BearingFactor::tangentBasis(o.bearing_C) * u->u);
-      const double sigmas = u->u.dot(o.bearing_C) > 0.0
-                                ? r.norm()
-                                : std::numeric_limits<double>::infinity();  // behind
-      out.push_back({kf->id, id, angle, sigmas});
-    }
-  }
-  return out;
 }
 
 }  // namespace ovo::estimator

@@ -1,5 +1,5 @@
-// Solving the window's factors with Ceres (states restored when the solve diverges), the bearing
-// errors after a solve (for the outlier test) and the gyro preintegrations' re-propagation.
+// Solving the window's factors with Ceres: the problem built from the factor list, the scalar
+// states bounded or held, and every state restored when the solve fails or diverges.
 #pragma once
 
 #include <string>
@@ -41,20 +41,5 @@ struct SolveSummary {
 SolveSummary solveFactors(std::vector<FactorSpec> factors, const std::vector<Keyframe*>& keyframes,
                           std::unordered_map<TrackId, Landmark>& landmarks,
                           const WindowModel& model, const SolveOptions& options);
-
-/// Angular error (rad) of every bearing observation at the current states, by (kf id, track).
-struct ObservationError {
-  int kf_id;
-  TrackId track;
-  double angle_rad;  // between the sighting and the landmark's predicted bearing
-  double sigmas;     // the same in the sighting's own sigmas against its anchor (inf: behind)
-};
-std::vector<ObservationError> observationErrors(const std::vector<Keyframe*>& keyframes,
-                                                const std::unordered_map<TrackId, Landmark>& lms,
-                                                const WindowModel& model);
-
-/// Re-propagates the gyro preintegrations (keyframes in time order) whose bias linearisation is
-/// now more than 0.002 rad/s from the previous keyframe's estimate.
-void repropagateGyro(const std::vector<Keyframe*>& keyframes);
 
 }  // namespace ovo::estimator

@@ -1,3 +1,4 @@
+// The standstill test of a frame and the zero-rate update's bias estimate.
 #include "estimator/window/standstill.hpp"
 
 #include <algorithm>

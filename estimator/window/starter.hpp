@@ -12,10 +12,10 @@
 #include <unordered_map>
 #include <vector>
 
-#include "estimator/estimator.hpp"
 #include "estimator/common/ground_plane.hpp"
-#include "estimator/window/ground_chain.hpp"
 #include "estimator/common/two_view.hpp"
+#include "estimator/estimator.hpp"
+#include "estimator/window/ground_chain.hpp"
 #include "estimator/window/lidar_ranges.hpp"
 #include "estimator/window/map.hpp"
 #include "estimator/window/options.hpp"
@@ -56,7 +56,7 @@ struct InitialGeometry {
   std::vector<Vec3> b0;          // their bearings in the reference
 };
 
-class WindowInitializer {
+class WindowStarter {
  public:
   enum class Outcome {
     kNotYet,            // keep the reference, try again with a later frame
@@ -67,10 +67,10 @@ class WindowInitializer {
   using ScanLookup = std::function<std::optional<FrameScan>(Timestamp, const SE3&)>;
   using Note = std::function<void(const std::string&)>;
 
-  WindowInitializer(const SensorSetup& setup, const WindowOptions& options,
-                    const GroundPlaneOptions& ground_options,
-                    const frontend::RelativePoseOptions& relpose_options, double inlier_rad,
-                    const WindowLidar& lidar, bool use_gyro, bool use_lidar, Note note);
+  WindowStarter(const SensorSetup& setup, const WindowOptions& options,
+                const GroundPlaneOptions& ground_options,
+                const frontend::RelativePoseOptions& relpose_options, double inlier_rad,
+                const WindowLidar& lidar, bool use_gyro, bool use_lidar, Note note);
 
   /// One attempt with the frame at the predicted pose T_W_B_pred (its rotation the gyro's, when
   /// there is one). can_reference: whether this frame may start a new reference (with the LiDAR:

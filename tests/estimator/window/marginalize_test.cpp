@@ -12,7 +12,9 @@
 #include <vector>
 
 #include "common/so3.hpp"
+#include "estimator/window/lidar_gate.hpp"
 #include "estimator/window/solve.hpp"
+#include "estimator/window/terrain.hpp"
 #include "factors/pose_prior_factor.hpp"
 
 namespace ovo::estimator {
