@@ -9,15 +9,31 @@ namespace ovo::estimator {
 
 namespace {
 
-bool smoothAround(const LidarScan& scan, std::size_t i, double max_step_fraction, int neighbours) {
+// True when the scan's beams close the circle: n |increment| within half an increment of 2 pi
+// (its last beam is then next to its first).
+bool closesCircle(const LidarScan& scan) {
+  const double step = std::abs(scan.angle_increment_rad);
+  return step > 0.0 &&
+         std::abs(static_cast<double>(scan.ranges_m.size()) * step - 2.0 * M_PI) <= 0.5 * step;
+}
+
+// Beam k of the scan's grid (wrapped around a scan that closes the circle); -1 outside the scan.
+long beamAt(const LidarScan& scan, long k) {
   const auto n = static_cast<long>(scan.ranges_m.size());
+  if (k >= 0 && k < n) return k;
+  if (!closesCircle(scan) || n == 0) return -1;
+  return ((k % n) + n) % n;
+}
+
+bool smoothAround(const LidarScan& scan, std::size_t i, double max_step_fraction, int neighbours) {
   const long c = static_cast<long>(i);
-  if (c - neighbours < 0 || c + neighbours >= n) return false;
   const double max_step = max_step_fraction * scan.ranges_m[i];
   for (long k = c - neighbours; k < c + neighbours; ++k) {
-    if (!scan.valid(static_cast<std::size_t>(k)) || !scan.valid(static_cast<std::size_t>(k + 1)))
+    const long a = beamAt(scan, k), b = beamAt(scan, k + 1);
+    if (a < 0 || b < 0) return false;
+    if (!scan.valid(static_cast<std::size_t>(a)) || !scan.valid(static_cast<std::size_t>(b)))
       return false;
-    if (std::abs(scan.ranges_m[k + 1] - scan.ranges_m[k]) > max_step) return false;
+    if (std::abs(scan.ranges_m[b] - scan.ranges_m[a]) > max_step) return false;
   }
   return true;
 }
@@ -39,18 +55,35 @@ std::vector<BeamInImage> projectScan(const LidarScan& scan, const camera::Camera
   return out;
 }
 
+std::optional<double> scanGridPosition(const LidarScan& scan, double phi_rad) {
+  const double inc = scan.angle_increment_rad;
+  const std::size_t n = scan.ranges_m.size();
+  if (!(std::abs(inc) > 0.0) || !std::isfinite(inc) || n < 2 || !std::isfinite(phi_rad) ||
+      !std::isfinite(scan.angle_min_rad))
+    return std::nullopt;
+  // phi's offset from the first beam, taken modulo 2 pi onto the side the scan sweeps (a scan
+  // published as 0..2 pi, or from +pi down to -pi, reads the same as one from -pi up to pi).
+  constexpr double kTwoPi = 2.0 * M_PI;
+  double d = (phi_rad - scan.angle_min_rad) * (inc > 0.0 ? 1.0 : -1.0);
+  d -= kTwoPi * std::floor(d / kTwoPi);
+  const double f = d / std::abs(inc);
+  const double last = static_cast<double>(closesCircle(scan) ? n : n - 1);
+  if (!(f >= 0.0) || f >= last) return std::nullopt;
+  return f;
+}
+
 std::optional<double> interpolateRange(const LidarScan& scan, double phi_rad,
                                        double max_step_fraction, int neighbours) {
-  if (!(scan.angle_increment_rad > 0.0) || scan.ranges_m.size() < 2) return std::nullopt;
-  const double f = (phi_rad - scan.angle_min_rad) / scan.angle_increment_rad;
-  if (!(f >= 0.0) || f >= static_cast<double>(scan.ranges_m.size() - 1)) return std::nullopt;
-  const auto i0 = static_cast<std::size_t>(f);
-  for (const std::size_t i : {i0, i0 + 1})
+  const auto f = scanGridPosition(scan, phi_rad);
+  if (!f) return std::nullopt;
+  const auto i0 = static_cast<std::size_t>(*f);
+  const auto i1 = static_cast<std::size_t>(beamAt(scan, static_cast<long>(i0) + 1));
+  for (const std::size_t i : {i0, i1})
     if (!scan.valid(i) ||
         (max_step_fraction > 0.0 && !smoothAround(scan, i, max_step_fraction, neighbours)))
       return std::nullopt;
-  const double a = f - static_cast<double>(i0);
-  return (1.0 - a) * scan.ranges_m[i0] + a * scan.ranges_m[i0 + 1];
+  const double a = *f - static_cast<double>(i0);
+  return (1.0 - a) * scan.ranges_m[i0] + a * scan.ranges_m[i1];
 }
 
 std::optional<double> groundRangeAlongRay(const Vec3& hit_L, const Vec3& up_L, const Vec3& c_L,

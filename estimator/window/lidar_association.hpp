@@ -27,9 +27,15 @@ std::vector<BeamInImage> projectScan(const LidarScan& scan, const camera::Camera
                                      const SE3& T_C_L, double max_step_fraction = 0.0,
                                      int neighbours = 2);
 
+/// Where azimuth phi_rad (any angle, taken modulo 2 pi) falls on the scan's beam grid: 0 at the
+/// first beam, 1 at the second, whatever the sign of the increment; up to n for a scan that closes
+/// the circle (between its last and its first beam), else up to n - 1; nullopt outside the scan.
+std::optional<double> scanGridPosition(const LidarScan& scan, double phi_rad);
+
 /// The scan's range at azimuth phi_rad in the L x-y plane, interpolated between the two beams
-/// around it, when both and `neighbours` more on each side are valid and adjacent ranges differ by
-/// less than max_step_fraction of the range (a smooth surface); nullopt otherwise.
+/// around it (scanGridPosition), when both and `neighbours` more on each side are valid and
+/// adjacent ranges differ by less than max_step_fraction of the range (a smooth surface); nullopt
+/// otherwise.
 std::optional<double> interpolateRange(const LidarScan& scan, double phi_rad,
                                        double max_step_fraction, int neighbours);
 

@@ -2,13 +2,14 @@
 // flat ground, meets it grazing about 5.4 m ahead. A landmark on the ground a fraction of a degree
 // off the scan plane is far from the beam's range there; the ground plane through the beam end
 // gives its true scan-plane distance. Known answers from the world geometry.
-#include "estimator/window/lidar_association.hpp"
-
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "estimator/common/lidar_scale.hpp"
+#include "estimator/window/lidar_association.hpp"
 
 namespace ovo::estimator {
 namespace {
@@ -97,6 +98,60 @@ TEST(InterpolateRange, IsLinearBetweenBeamsAndRefusesADepthEdge) {
   scan.ranges_m[60] = 3.0;  // an edge (a canopy gap) two beams away
   EXPECT_FALSE(interpolateRange(scan, -0.5 + 0.585, 0.05, 2).has_value());
   EXPECT_TRUE(interpolateRange(scan, -0.5 + 0.585, 0.05, 0).has_value());  // no edge test
+}
+
+// A 270-degree scanner's scan (-135..135 deg, 0.5 deg) with a smooth wall and one depth edge, as
+// it was published and republished two ways: as 0..2 pi (720 beams, the gap behind it empty) and
+// with a negative increment (from +135 down to -135 deg). Every azimuth reads the same range (or
+// none) from all three.
+TEST(InterpolateRange, AScanRepublishedAs0To2PiOrWithANegativeIncrementReadsTheSame) {
+  constexpr double kDeg = M_PI / 180.0;
+  LidarScan original;
+  original.angle_min_rad = -135.0 * kDeg;
+  original.angle_increment_rad = 0.5 * kDeg;
+  original.range_min_m = 0.1;
+  original.range_max_m = 30.0;
+  for (int i = 0; i <= 540; ++i) {
+    const double a = original.angle(static_cast<std::size_t>(i));
+    original.ranges_m.push_back(i == 300 ? 9.0 : 3.0 + std::sin(a));  // beam 300: an edge
+  }
+  LidarScan circle = original;
+  circle.angle_min_rad = 0.0;
+  circle.ranges_m.assign(720, std::numeric_limits<double>::quiet_NaN());
+  for (int i = 0; i <= 540; ++i)  // beam i at -135 + 0.5 i deg sits at (450 + i) mod 720
+    circle.ranges_m[static_cast<std::size_t>((450 + i) % 720)] = original.ranges_m[i];
+  LidarScan reversed = original;
+  reversed.angle_min_rad = 135.0 * kDeg;
+  reversed.angle_increment_rad = -0.5 * kDeg;
+  std::reverse(reversed.ranges_m.begin(), reversed.ranges_m.end());
+  int read = 0;
+  for (double deg = -179.9; deg < 180.0; deg += 0.37) {
+    const double phi = deg * kDeg;
+    const auto r = interpolateRange(original, phi, 0.05, 2);
+    for (const LidarScan* other : {&circle, &reversed}) {
+      const auto o = interpolateRange(*other, phi, 0.05, 2);
+      ASSERT_EQ(r.has_value(), o.has_value()) << deg << " deg";
+      if (r) EXPECT_NEAR(*r, *o, 1e-9) << deg << " deg";
+    }
+    read += r.has_value();
+  }
+  EXPECT_GT(read, 680);  // all of the 270 degrees but the edge's neighbourhood
+}
+
+// A 360-degree scan reads across its seam (between its last beam and its first).
+TEST(InterpolateRange, AFullCircleReadsAcrossItsSeam) {
+  LidarScan scan;
+  scan.angle_min_rad = -M_PI;
+  scan.angle_increment_rad = 2.0 * M_PI / 720.0;
+  scan.range_min_m = 0.1;
+  scan.range_max_m = 30.0;
+  scan.ranges_m.assign(720, 4.0);
+  scan.ranges_m.back() = 4.1;
+  const double phi = M_PI - 0.25 * scan.angle_increment_rad;  // three quarters past the last beam
+  const auto r = interpolateRange(scan, phi, 0.05, 2);
+  ASSERT_TRUE(r.has_value());
+  EXPECT_NEAR(*r, 0.25 * 4.1 + 0.75 * 4.0, 1e-9);
+  EXPECT_TRUE(interpolateRange(scan, -M_PI + 1e-4, 0.05, 2).has_value());  // by the first beam
 }
 
 }  // namespace
