@@ -62,6 +62,8 @@ nlohmann::json computeRunMetrics(const Trajectory& estimate, const Trajectory& g
   m["lidar_ranges"] = stats.lidar_ranges;
   m["gyro_gaps"] = stats.gyro_gaps;
   m["tracking_losses"] = stats.tracking_losses;
+  m["solve_failures"] = stats.solve_failures;
+  m["marginalization_failures"] = stats.marginalization_failures;
   m["notes"] = stats.notes;
   if (stats.lidar_residuals) {
     // The range factors' fit (window): RMS of predicted minus measured range, in metres and in

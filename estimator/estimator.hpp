@@ -130,6 +130,11 @@ struct EstimatorStats {
   int lidar_ranges = 0;         // window: LiDAR range factors over all keyframes
   int gyro_gaps = 0;
   int tracking_losses = 0;
+  // window: keyframe solves that failed (Ceres failed, or a state came out non-finite; the
+  // window's states were restored to their values before the solve) and marginalisations that
+  // failed (the window's gauge then held by a pose prior on its oldest keyframe).
+  int solve_failures = 0;
+  int marginalization_failures = 0;
   std::vector<std::string> notes;    // fallbacks said once ("no gyro: vision-only rotation", ...)
   std::optional<RefineInfo> refine;  // window --refine full: the final batch
   // window: the camera-gyro time offset it estimated on top of the rig's (image stamp minus the

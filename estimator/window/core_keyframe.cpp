@@ -85,6 +85,13 @@ void WindowCore::solveWindow() {
   so.camera_height_offset = {map_.camera_height_offset_m,
                              5.0 * model_.camera_height_offset_sigma_m};
   const SolveSummary s = solveFactors(std::move(factors), kfs, map_.landmarks, model_, so);
+  if (s.failed) {
+    if (++stats_.solve_failures == 1)
+      note(fmt::format(
+          "window: a keyframe solve failed and was undone (its states restored; solve_failures "
+          "counts them); the first said: {}",
+          s.message.empty() ? "a state came out non-finite" : s.message));
+  }
   last_solve_.residual_blocks = s.residual_blocks;
   last_solve_.iterations = s.iterations;
   removeOutliers(map_, model_, options_);
@@ -131,7 +138,11 @@ void WindowCore::marginalize() {
       gauge_.kf_id = map_.keyframes.front()->id;
       gauge_.T_W_B = map_.keyframes.front()->pose();
       gauge_.b_g = map_.keyframes.front()->bias();
-      note("marginalisation failed once: gauge fixed by a pose prior instead");
+      ++stats_.marginalization_failures;
+      note(
+          "window: a marginalisation failed: the gauge was held by a pose prior on the oldest "
+          "keyframe instead, and the factors meant for the prior were dropped "
+          "(marginalization_failures counts them)");
     }
     last_solve_.marginalize_ms += msSince(t0);
   }

@@ -24,6 +24,11 @@
 namespace ovo::estimator {
 namespace {
 
+// The inverse depth a landmark needs for the factors that measure its distance (ground height,
+// terrain plane, LiDAR range), 1/m: a point further than 1000 km is at infinity for them, and
+// its distance (1 / rho) would make them fail at the solve's start.
+constexpr double kMinRangedRho = 1e-6;
+
 /// The orientation block a keyframe's gyro factors use.
 double* gyroRotation(Keyframe& kf, const WindowModel& model) {
   return tiedRotations(model) ? kf.q_W_G : kf.q_W_B;
@@ -96,7 +101,8 @@ void addTerrainFactors(const Keyframes& keyframes, const KeyframesById& kf_of, L
   if (!usesTerrain(model)) return;
   for (auto& [id, lm] : landmarks) {
     auto a = kf_of.find(lm.anchor_kf);
-    if (!lm.on_ground || a == kf_of.end() || !a->second->terrain_set || !(lm.rho[0] > 0.0))
+    if (!lm.on_ground || a == kf_of.end() || !a->second->terrain_set ||
+        !(lm.rho[0] > kMinRangedRho))
       continue;
     FactorSpec f;
     f.kind = FactorKind::kTerrain;
@@ -132,7 +138,7 @@ bool addGroundFactors(const KeyframesById& kf_of, Landmarks& landmarks, const Wi
   bool height_used = false;
   if (model.camera_height_m > 0.0) {
     for (auto& [id, lm] : landmarks) {
-      if (!lm.on_ground || !kf_of.count(lm.anchor_kf) || !(lm.rho[0] > 0.0)) continue;
+      if (!lm.on_ground || !kf_of.count(lm.anchor_kf) || !(lm.rho[0] > kMinRangedRho)) continue;
       FactorSpec f;
       f.kind = FactorKind::kGround;
       if (with_height) {
@@ -163,7 +169,7 @@ void addLidarFactors(const Keyframes& keyframes, const KeyframesById& kf_of, Lan
       if (lm_it == landmarks.end()) continue;
       Landmark& lm = lm_it->second;
       auto anchor_it = kf_of.find(lm.anchor_kf);
-      if (anchor_it == kf_of.end() || !(lm.rho[0] > 0.0)) continue;
+      if (anchor_it == kf_of.end() || !(lm.rho[0] > kMinRangedRho)) continue;
       FactorSpec f;
       f.kind = FactorKind::kLidar;
       if (model.lidar_cauchy)

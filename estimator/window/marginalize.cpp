@@ -30,6 +30,8 @@ std::shared_ptr<const factors::MarginalizationInfo> marginalizeOldest(
 
   using Fate = FactorLedger::Fate;
   int added = 0;
+  // The fates are recorded once the prior is made: a prior that fails holds none of them.
+  std::vector<std::pair<FactorKey, Fate>> fates;
   for (const FactorSpec& f : all) {
     bool touches = false;
     for (const double* b : f.blocks) touches = touches || drop.count(b) > 0;
@@ -62,9 +64,12 @@ std::shared_ptr<const factors::MarginalizationInfo> marginalizeOldest(
       else
         fate = Fate::kDropped;
     }
-    if (ledger != nullptr && f.kind != FactorKind::kMarginal) ledger->record(f.key(), fate);
+    if (f.kind != FactorKind::kMarginal) fates.emplace_back(f.key(), fate);
   }
-  if (added == 0 || !info->marginalize()) return nullptr;
+  const bool made = added > 0 && info->marginalize();
+  if (ledger != nullptr)
+    for (const auto& [key, fate] : fates) ledger->record(key, made ? fate : Fate::kDropped);
+  if (!made) return nullptr;
   return info;
 }
 

@@ -36,8 +36,9 @@ struct MarginalizationPlan {
 /// block): a landmark that ends there with all its factors; one re-anchored (link) with the
 /// oldest keyframe's own measurements of it and the sighting of its new anchor, its other
 /// measurements staying in the window. Every factor that leaves the window is recorded in the
-/// ledger (prior or dropped) and never built again. Returns the new prior (null when the
-/// marginalisation failed; the caller then keeps a pose prior instead).
+/// ledger (prior or dropped: every one dropped when the marginalisation fails) and never built
+/// again. Returns the new prior (null when the marginalisation failed; the caller then keeps a
+/// pose prior instead).
 std::shared_ptr<const factors::MarginalizationInfo> marginalizeOldest(
     WindowMap& map, const WindowModel& model, const WindowGauge& gauge,
     const MarginalizationPlan& plan, FactorLedger* ledger);

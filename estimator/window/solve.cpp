@@ -99,6 +99,7 @@ SolveSummary solveFactors(std::vector<FactorSpec> factors, const std::vector<Key
   for (const auto& [id, lm] : landmarks) finite = finite && std::isfinite(lm.rho[0]);
   for (const ScalarState& x : scalars) finite = finite && (!x.block || std::isfinite(x.block[0]));
   if (!finite) {
+    summary.failed = true;
     for (std::size_t i = 0; i < scalars.size(); ++i)
       if (scalars[i].block) scalars[i].block[0] = scalar_backup[i];
     for (std::size_t k = 0; k < keyframes.size(); ++k) {

@@ -31,6 +31,7 @@ struct SolveOptions {
 
 struct SolveSummary {
   bool usable = false;  // the solver ran and every state is finite
+  bool failed = false;  // the solver failed or a state came out non-finite: states restored
   int iterations = 0;
   int residual_blocks = 0;
   double initial_cost = 0.0, final_cost = 0.0;

@@ -154,6 +154,43 @@ TEST(MarginalizeOldest, TheNewAnchorsLidarRangeIsCountedOnceInTheWindow) {
 
 // A previous prior that touches none of the oldest keyframe's states goes into the new prior all
 // the same (without a gyro nothing else may link it): it used to be lost.
+// A ground landmark gets its camera-height factor only at an inverse depth that is a distance: at
+// 1e-9 /m (1e6 km, for the ground at infinity) the factor's 1 / rho would fail the solve at its
+// start point.
+TEST(BuildFactors, AGroundLandmarkAtAnInverseDepthOfNoDistanceGetsNoHeightFactor) {
+  WindowMap map = threeKeyframesOneLandmark();
+  WindowModel m = model();
+  m.camera_height_m = 1.0;
+  Landmark& lm = map.landmarks.at(kTrack);
+  lm.on_ground = true;
+  lm.ground_up_C = Vec3(0.0, -1.0, 0.0);
+  std::vector<Keyframe*> kfs;
+  for (auto& kf : map.keyframes) kfs.push_back(kf.get());
+  const auto ground = [&] {
+    const auto f = buildFactors(kfs, map.landmarks, m, gaugeOnTheOldest());
+    return std::count_if(f.begin(), f.end(),
+                         [](const FactorSpec& s) { return s.kind == FactorKind::kGround; });
+  };
+  EXPECT_EQ(ground(), 1);
+  lm.rho[0] = 1e-9;
+  EXPECT_EQ(ground(), 0);
+}
+
+// With nothing but the gauge's pose prior on the oldest keyframe, no state of the prior would be
+// kept and the marginalisation fails: the ledger then says the prior's factors were dropped, not
+// that a prior holds them.
+TEST(MarginalizeOldest, AFailedMarginalisationRecordsItsFactorsAsDropped) {
+  WindowMap map = threeKeyframesOneLandmark();
+  map.landmarks.clear();
+  FactorLedger ledger;
+  const auto info = marginalizeOldest(map, model(), gaugeOnTheOldest(), ending({}), &ledger);
+  EXPECT_EQ(info, nullptr);
+  const auto fate = ledger.fate({FactorKind::kPosePrior, -1, 10});
+  ASSERT_TRUE(fate.has_value());
+  EXPECT_EQ(*fate, FactorLedger::Fate::kDropped);
+  EXPECT_EQ(ledger.recorded(FactorKind::kPosePrior, FactorLedger::Fate::kPrior), 0);
+}
+
 TEST(MarginalizeOldest, ThePreviousPriorGoesOnWhenItTouchesNoneOfTheOldestStates) {
   WindowMap map = threeKeyframesOneLandmark();
   Keyframe& kf12 = *map.keyframes[2];
