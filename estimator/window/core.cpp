@@ -241,6 +241,9 @@ FrameEstimate WindowCore::processFrame(const VisualFrame& frame_in) {
   last_obs_ = std::move(obs);
   recordFrame(e, ref_kf);
   frames_.addBias(e.t_ns, bias_);
+  // (With the history, frames settle when a keyframe leaves the window: a parked robot's then
+  // wait for the next keyframe.)
+  if (!frames_.keepsHistory()) settleFrames();
   trimGyro();
   e.estimator_ms = msSince(t_start);
   return e;

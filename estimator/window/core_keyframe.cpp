@@ -150,11 +150,24 @@ void WindowCore::marginalize() {
 }
 
 void WindowCore::settleFrames() {
+  if (options_.refine == RefineMode::kFull) return;
+  const Timestamp recent = last_t_ - fromSeconds(kSettleAfterS);  // scans look back this far
+  if (!frames_.keepsHistory()) {
+    // Nothing is kept: a frame goes once it is that old, whatever its keyframe or reference (a
+    // later start would place it again only for the output), so that a parked robot (no new
+    // keyframe) or one that never starts holds no more frames than a moving one. The
+    // reference's sightings of frames gone go with them.
+    frames_.settle(recent, [this](int id) { return keyframeState(id); });
+    const std::size_t first_open = frames_.size() - frames_.open().size();
+    for (auto* ref : {&reference_, &still_reference_})
+      if (*ref) (*ref)->forgetSightingsBefore(static_cast<int>(first_open));
+    return;
+  }
   // A keyframe that left the window keeps its pose, unless the full refinement moves it at the
   // end; frames are settled up to the window's oldest keyframe and the frames a restart may
-  // still place (from its reference on), and no nearer than kSettleAfterS (scans look back).
-  if (options_.refine == RefineMode::kFull || map_.empty()) return;
-  Timestamp before = std::min(map_.keyframes.front()->t_ns, last_t_ - fromSeconds(kSettleAfterS));
+  // still place (from its reference on).
+  if (map_.empty()) return;
+  Timestamp before = std::min(map_.keyframes.front()->t_ns, recent);
   if (reference_) before = std::min(before, reference_->t_ns);
   if (still_reference_) before = std::min(before, still_reference_->t_ns);
   frames_.settle(before, [this](int id) { return keyframeState(id); });

@@ -51,7 +51,8 @@ SE3 FrameLog::finalPose(const FrameRecord& r, const KeyframeLookup& keyframe_sta
 void FrameLog::settle(Timestamp before_ns, const KeyframeLookup& keyframe_state) {
   while (!open_.empty() && open_.front().t_ns < before_ns) {
     const FrameRecord& r = open_.front();
-    if (r.ref_kf >= 0 && kf_states_.count(r.ref_kf) == 0) break;  // its keyframe may still move
+    // Its keyframe may still move (what matters only when its pose is kept).
+    if (keep_history_ && r.ref_kf >= 0 && kf_states_.count(r.ref_kf) == 0) break;
     if (keep_history_) settled_.push_back(settled(r.t_ns, finalPose(r, keyframe_state)));
     open_.pop_front();
     ++settled_count_;

@@ -72,9 +72,11 @@ class FrameLog {
   /// false: settled frames, keyframes and biases are dropped instead of kept (trajectory(),
   /// keyframes() and biasHistory() then hold only the recent part the window may still change).
   void keepHistory(bool keep) { keep_history_ = keep; }
+  bool keepsHistory() const { return keep_history_; }
   /// Settles the frames before `before_ns` whose keyframe's states are kept (it left the window for
-  /// good), oldest first, up to the first that is not; then the kept keyframes older than every
-  /// open frame's and `before_ns`, and the biases before it.
+  /// good), oldest first, up to the first that is not (without the history: every frame before
+  /// it, whose pose is dropped either way); then the kept keyframes older than every open frame's
+  /// and `before_ns`, and the biases before it.
   void settle(Timestamp before_ns, const KeyframeLookup& keyframe_state);
 
   /// Keeps a keyframe's poses as they are when it leaves the window (or at the end).

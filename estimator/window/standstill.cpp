@@ -39,38 +39,48 @@ void addZeroRate(Keyframe& kf, const Vec3& bias_radps, double sigma_radps) {
   kf.zero_rate->sigma_radps = 1.0 / std::sqrt(w0 + w1);
 }
 
+void StandstillBias::Sums::add(const Sample& s) {
+  rotation_rad += s.rotation_rad;
+  time_s += s.dt_s;
+  rotation2_over_dt += s.rotation_rad.squaredNorm() / s.dt_s;
+  ++frames;
+}
+
 void StandstillBias::add(Timestamp t_ns, const Vec3& rotation_rad, double dt_s) {
-  if (dt_s > 0.0) open_.push_back({t_ns, rotation_rad, dt_s});
+  if (!(dt_s > 0.0)) return;
+  recent_.push_back({t_ns, rotation_rad, dt_s});
+  ++open_frames_;
+  // A frame more than trim_s before the newest is kept whenever the streak ends.
+  const Timestamp trim_ns = fromSeconds(trim_s_);
+  while (!recent_.empty() && recent_.front().t_ns <= t_ns - trim_ns) {
+    counted_.add(recent_.front());
+    recent_.pop_front();
+  }
 }
 
 void StandstillBias::endStreak() {
-  if (open_.empty()) return;
-  const Timestamp keep_until = open_.back().t_ns - fromSeconds(trim_s_);
-  for (const Sample& s : open_)
-    if (s.t_ns <= keep_until) ended_.push_back(s);
-  open_.clear();
+  if (open_frames_ == 0) return;
+  open_frames_ = 0;
+  if (recent_.empty()) return;  // (trim_s 0: every frame counted already)
+  const Timestamp keep_until = recent_.back().t_ns - fromSeconds(trim_s_);
+  for (const Sample& s : recent_)
+    if (s.t_ns <= keep_until) counted_.add(s);
+  recent_.clear();
 }
 
 std::optional<StandstillBias::Estimate> StandstillBias::estimate(double min_time_s) const {
+  Sums all = counted_;
+  for (const Sample& s : recent_) all.add(s);
   Estimate e;
-  Vec3 rotation = Vec3::Zero();
-  for (const auto* samples : {&ended_, &open_})
-    for (const Sample& s : *samples) {
-      rotation += s.rotation_rad;
-      e.time_s += s.dt_s;
-    }
+  e.time_s = all.time_s;
   if (!(e.time_s > 0.0) || e.time_s < min_time_s) return std::nullopt;
-  e.bias_radps = rotation / e.time_s;
-  // A frame's mean rate has the variance noise_density^2 / dt per axis.
-  double chi2 = 0.0;
-  int n = 0;
-  for (const auto* samples : {&ended_, &open_})
-    for (const Sample& s : *samples) {
-      chi2 += (s.rotation_rad / s.dt_s - e.bias_radps).squaredNorm() * s.dt_s /
-              (noise_density_ * noise_density_);
-      ++n;
-    }
-  e.chi2_dof = n > 1 ? chi2 / (3.0 * (n - 1)) : 1.0;
+  e.bias_radps = all.rotation_rad / e.time_s;
+  // A frame's mean rate has the variance noise_density^2 / dt per axis: chi2 is the sum over the
+  // frames of |rotation / dt - bias|^2 dt / noise_density^2, from the sums.
+  const double scatter = all.rotation2_over_dt - 2.0 * e.bias_radps.dot(all.rotation_rad) +
+                         e.bias_radps.squaredNorm() * all.time_s;
+  const double chi2 = std::max(0.0, scatter) / (noise_density_ * noise_density_);
+  e.chi2_dof = all.frames > 1 ? chi2 / (3.0 * (all.frames - 1)) : 1.0;
   e.sigma_radps = std::sqrt(noise_density_ * noise_density_ / e.time_s +
                             bias_random_walk_ * bias_random_walk_ * e.time_s) *
                   std::sqrt(std::max(1.0, e.chi2_dof));
@@ -78,8 +88,9 @@ std::optional<StandstillBias::Estimate> StandstillBias::estimate(double min_time
 }
 
 void StandstillBias::reset() {
-  ended_.clear();
-  open_.clear();
+  counted_ = {};
+  recent_.clear();
+  open_frames_ = 0;
 }
 
 }  // namespace ovo::estimator

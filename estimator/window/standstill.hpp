@@ -3,6 +3,7 @@
 // frames measures the gyro bias.
 #pragma once
 
+#include <deque>
 #include <optional>
 #include <vector>
 
@@ -57,10 +58,13 @@ class StandstillBias {
   void add(Timestamp t_ns, const Vec3& rotation_rad, double dt_s);
   /// The first moving frame after still ones: the open streak loses its last trim_s and counts.
   void endStreak();
-  bool inStreak() const { return !open_.empty(); }
+  bool inStreak() const { return open_frames_ > 0; }
   /// Over the ended streaks and the open one (untrimmed); nullopt below min_time_s.
   std::optional<Estimate> estimate(double min_time_s) const;
   void reset();
+  /// Frames held one by one (the open streak's last trim_s): bounded however long the robot
+  /// stands; the rest is kept as sums.
+  std::size_t framesHeld() const { return recent_.size(); }
 
  private:
   struct Sample {
@@ -68,10 +72,21 @@ class StandstillBias {
     Vec3 rotation_rad;
     double dt_s;
   };
+  // Sums over frames in time order (the rotation and time added one frame at a time, so that the
+  // estimate does not depend on how many frames are held one by one).
+  struct Sums {
+    Vec3 rotation_rad = Vec3::Zero();
+    double time_s = 0.0;
+    double rotation2_over_dt = 0.0;  // sum of |rotation|^2 / dt, rad^2/s
+    int frames = 0;
+    void add(const Sample& s);
+  };
   double noise_density_;     // rad/s/sqrt(Hz)
   double bias_random_walk_;  // rad/s^2/sqrt(Hz)
   double trim_s_;            // s
-  std::vector<Sample> ended_, open_;
+  Sums counted_;  // the ended streaks' frames and the open streak's older than its last trim_s
+  std::deque<Sample> recent_;  // the open streak's frames that its end may still trim
+  int open_frames_ = 0;        // frames of the open streak (counted or recent)
 };
 
 }  // namespace ovo::estimator

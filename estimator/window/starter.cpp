@@ -37,7 +37,11 @@ void Reference::keepSightings(int frame_record, const VisualFrame& frame) {
   std::vector<TrackObservation> seen;
   for (const auto& o : frame.observations)
     if (obs.count(o.track_id)) seen.push_back(o);
-  pending.emplace_back(frame_record, std::move(seen));
+  if (!seen.empty()) pending.emplace_back(frame_record, std::move(seen));
+}
+
+void Reference::forgetSightingsBefore(int frame_record) {
+  std::erase_if(pending, [&](const auto& p) { return p.first < frame_record; });
 }
 
 void Reference::sharedBearings(const VisualFrame& frame, std::vector<Vec3>* b0,

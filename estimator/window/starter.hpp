@@ -37,8 +37,10 @@ struct Reference {
   // Frames since the reference (record index, their sightings of the reference's tracks):
   // refined against the first landmarks once the window initialises.
   std::vector<std::pair<int, std::vector<TrackObservation>>> pending;
-  /// Adds the frame's sightings of the reference's tracks to `pending`.
+  /// Adds the frame's sightings of the reference's tracks to `pending` (none: nothing added).
   void keepSightings(int frame_record, const VisualFrame& frame);
+  /// Forgets the sightings of the frames recorded before frame_record (settled for good).
+  void forgetSightingsBefore(int frame_record);
   /// The bearings of the tracks the frame shares with the reference: b0 here, b1 in the frame
   /// (and their ids when asked for), in the frame's order.
   void sharedBearings(const VisualFrame& frame, std::vector<Vec3>* b0, std::vector<Vec3>* b1,

@@ -201,6 +201,52 @@ TEST(WindowMemory, TheOpenFrameRecordsStayBounded) {
   EXPECT_LT(streaming.trajectory, streaming.frames / 4);
 }
 
+// Without the history, memory stays flat for a robot that stops for a long time (no new keyframe:
+// before, its still frames all waited for the next one to settle) and for one whose camera sees
+// nothing from the start (the window never starts: before, nothing settled before a window
+// existed). The frames held are those of the last kSettleAfterS (5 s, 100 frames) at most.
+TEST(WindowMemory, AParkedOrBlindRobotHoldsNoMoreFramesThanAMovingOne) {
+  test::SyntheticOptions o;
+  o.duration_s = 40.0;
+  o.stop_from_s = 6.0;
+  o.stop_to_s = 38.0;
+  const auto parked = sequence(o);
+  std::size_t open_early = 0, open_late = 0, bias_late = 0;
+  {
+    WindowCore core(parked.setup, WindowOptions{});
+    core.keepHistory(false);
+    test::feedSequence(parked, core, [&](std::size_t f, const FrameEstimate&) {
+      const double t = toSeconds(parked.frames[f].t_ns - parked.frames[0].t_ns);
+      if (std::abs(t - 14.0) < 1e-6) open_early = core.frameLog().open().size();
+      if (std::abs(t - 37.0) < 1e-6) {
+        open_late = core.frameLog().open().size();
+        bias_late = core.biasHistory().size();
+      }
+    });
+    ASSERT_TRUE(core.initialized());
+  }
+  RecordProperty("parked_open_14s", std::to_string(open_early));
+  RecordProperty("parked_open_37s", std::to_string(open_late));
+  EXPECT_GT(open_early, 0u);
+  EXPECT_LE(open_late, 120u);  // 31 s parked: 620 frames
+  EXPECT_LE(open_late, open_early + 5);
+  EXPECT_LE(bias_late, 120u);
+
+  test::SyntheticOptions b;
+  b.duration_s = 40.0;
+  auto blind = sequence(b);
+  for (auto& frame : blind.frames) {
+    frame.visual.observations.clear();
+    frame.visual.frontend_ok = false;
+  }
+  WindowCore core(blind.setup, WindowOptions{});
+  core.keepHistory(false);
+  test::feedSequence(blind, core, [](std::size_t, const FrameEstimate&) {});
+  EXPECT_FALSE(core.initialized());
+  EXPECT_LE(core.frameLog().open().size(), 120u);  // of 800
+  EXPECT_LE(core.biasHistory().size(), 120u);
+}
+
 // Settling changes no pose: frames placed against keyframes that left the window (their states
 // kept), settled up to the first frame whose keyframe is still in the window, give the
 // trajectory and keyframes they gave as records; the keyframes no open frame refers to are
@@ -268,7 +314,8 @@ TEST(WindowMemory, SettlingKeepsEveryPose) {
   streaming.keepHistory(false);
   fill(streaming);
   streaming.settle(fromSeconds(10.0), lookup_in(streaming));
-  EXPECT_EQ(streaming.trajectory(lookup_in(streaming)).size(), 8u);
+  // Every frame before it goes, whatever its keyframe: its pose would not be kept either way.
+  EXPECT_EQ(streaming.trajectory(lookup_in(streaming)).size(), 0u);
   EXPECT_EQ(streaming.keyframes(lookup_in(streaming)).size(), 2u);
   EXPECT_EQ(streaming.biasHistory().size(), 0u);  // every bias before 10 s
 }

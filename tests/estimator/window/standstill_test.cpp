@@ -79,5 +79,27 @@ TEST(StandstillBias, StreaksAddUpAndTooShortGivesNothing) {
   EXPECT_FALSE(z.estimate(0.0).has_value());
 }
 
+// An hour parked at 20 Hz: the zero-rate update holds only the frames its end may still trim
+// (trim_s of them), the rest as sums, and its estimate is the mean over every frame.
+TEST(StandstillBias, AnHourParkedHoldsOnlyTheFramesItMayTrim) {
+  StandstillBias z(kNoiseDensity, kWalk, 0.3);
+  std::mt19937 rng(5);
+  std::normal_distribution<double> n(0.0, kNoiseDensity / std::sqrt(kFrameS));
+  const Vec3 bias(0.002, -0.001, 0.0005);
+  Vec3 sum = Vec3::Zero();
+  const int frames = 72000;
+  for (int k = 0; k < frames; ++k) {
+    const Vec3 rotation = (bias + Vec3(n(rng), n(rng), n(rng))) * kFrameS;
+    sum += rotation;
+    z.add(fromSeconds(1.0 + (k + 1) * kFrameS), rotation, kFrameS);
+  }
+  EXPECT_LE(z.framesHeld(), 7u);  // 0.3 s at 20 Hz, and the newest
+  const auto e = z.estimate(1.0);
+  ASSERT_TRUE(e.has_value());
+  EXPECT_NEAR(e->time_s, frames * kFrameS, 1e-6);
+  EXPECT_LT((e->bias_radps - sum / (frames * kFrameS)).norm(), 1e-12);
+  EXPECT_NEAR(e->chi2_dof, 1.0, 0.05);  // white noise at the given density
+}
+
 }  // namespace
 }  // namespace ovo::estimator
