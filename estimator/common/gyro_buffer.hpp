@@ -31,10 +31,13 @@ struct GyroScatter {
 
 class GyroBuffer {
  public:
+  /// True when add() would take the sample: finite and later than the last one.
+  bool accepts(const ImuSample& s) const {
+    return s.gyro_radps.allFinite() && (samples_.empty() || s.t_ns > samples_.back().t_ns);
+  }
   /// Appends a sample; samples out of time order or with non-finite values are rejected (false).
   bool add(const ImuSample& s) {
-    if (!s.gyro_radps.allFinite()) return false;
-    if (!samples_.empty() && s.t_ns <= samples_.back().t_ns) return false;
+    if (!accepts(s)) return false;
     samples_.push_back(s);
     return true;
   }

@@ -11,8 +11,7 @@ GyroFront::GyroFront(const GyroFrontOptions& options)
 GyroFront::Intake GyroFront::add(const ImuSample& sample) {
   // Order and finiteness first: a sample the buffer refuses must not become the spike filter's
   // reference.
-  if (!sample.gyro_radps.allFinite()) return Intake::kInvalid;
-  if (!buffer_.empty() && sample.t_ns <= buffer_.samples().back().t_ns) return Intake::kInvalid;
+  if (!buffer_.accepts(sample)) return Intake::kInvalid;
   if (!spikes_.accept(sample)) return Intake::kSpike;
   buffer_.add(sample);
   return Intake::kAccepted;

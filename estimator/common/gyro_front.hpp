@@ -60,7 +60,6 @@ class GyroFront {
   void dropBefore(Timestamp t_ns) { buffer_.dropBefore(t_ns); }
 
   int spikes() const { return spikes_.rejected(); }
-  const GyroFrontOptions& options() const { return options_; }
 
  private:
   GyroFrontOptions options_;

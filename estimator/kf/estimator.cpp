@@ -43,9 +43,9 @@ class KfEstimator final : public Estimator {
       : setup_(setup),
         options_(readKfEstimatorOptions(config, setup)),
         chain_(setup.camera, config),
-        frontend_gyro_(kFrontendLeadFrames, gyroFrontOptions()),
+        frontend_gyro_(kFrontendLeadFrames, gyroFrontOptions(options_)),
         filter_(options_.filter),
-        gyro_(gyroFrontOptions()) {
+        gyro_(gyroFrontOptions(options_)) {
     up_C_ = bodyUpIn(setup_.T_B_C);
     T_C_L_ = cameraFromLidar(setup_.T_B_C, setup_.T_B_L);
     height_m_ = options_.camera_height_m > 0 ? options_.camera_height_m
@@ -274,13 +274,6 @@ class KfEstimator final : public Estimator {
     if (last_gyro_t_) gyro_.dropBefore(*last_gyro_t_ - fromSeconds(kRecentGyroS));
   }
 
-  GyroFrontOptions gyroFrontOptions() const {
-    GyroFrontOptions o;
-    o.max_jump_radps = options_.gyro_max_jump_radps;
-    o.max_spike_s = options_.gyro_max_spike_s;
-    return o;
-  }
-
   // {scale of this step, scale of the uncorrected chain}; see the model above the class.
   std::pair<double, double> metricScale(Timestamp t_ns, double dt, const Mat3& R_cur_ref,
                                         const Vec3& t_unit, const ChainStep& s, FrameEstimate* f) {
@@ -402,7 +395,7 @@ class KfEstimator final : public Estimator {
   // The scan made instantaneous at its stamp (options_.lidar_deskew; scans with per-beam times):
   // the body turned at the gyro's mean rate over the sweep, less the filter's bias. The kf's own
   // velocity (the chain's, over the last frames) is left out: it tightened the LiDAR's scale
-  // measurements on a straight row but biased them through a headland pivot (README).
+  // measurements on a straight row but biased them through a headland pivot (docs/simulator.md).
   LidarScan deskewed(const LidarScan& scan) const {
     if (!options_.lidar_deskew || !use_gyro_) return scan;
     return deskewScanWithGyro(scan, gyro_.samples(), filter_.gyroBias(), Vec3::Zero(),

@@ -4,6 +4,7 @@
 
 #include "common/config.hpp"
 #include "estimator/common/ground_plane.hpp"
+#include "estimator/common/gyro_front.hpp"
 #include "estimator/common/lidar_scale.hpp"
 #include "estimator/estimator.hpp"
 #include "estimator/kf/filter.hpp"
@@ -57,5 +58,14 @@ struct KfEstimatorOptions {
 /// The options from cfg; the filter's gyro noise figures are the rig's (setup) unless cfg sets
 /// them.
 KfEstimatorOptions readKfEstimatorOptions(const Config& cfg, const SensorSetup& setup);
+
+/// The kf's gyro front (the filter's and the frontend's matching prior's): its spike filter (the
+/// kf integrates the samples itself, so the preintegration options are the defaults).
+inline GyroFrontOptions gyroFrontOptions(const KfEstimatorOptions& options) {
+  GyroFrontOptions o;
+  o.max_jump_radps = options.gyro_max_jump_radps;
+  o.max_spike_s = options.gyro_max_spike_s;
+  return o;
+}
 
 }  // namespace ovo::estimator

@@ -231,9 +231,9 @@ bool addGyroFactors(const Keyframes& keyframes, const WindowModel& model, double
   return offset_used;
 }
 
-// The vision orientations tied to the gyro chain's, and the standstills' zero-rate updates.
-void addRotationTieAndZeroRateFactors(const Keyframes& keyframes, const WindowModel& model,
-                                      std::vector<FactorSpec>& out) {
+// Each keyframe's vision orientation tied to its gyro chain's.
+void addRotationTieFactors(const Keyframes& keyframes, const WindowModel& model,
+                           std::vector<FactorSpec>& out) {
   if (tiedRotations(model)) {
     for (Keyframe* kf : keyframes) {
       FactorSpec t;
@@ -244,6 +244,11 @@ void addRotationTieAndZeroRateFactors(const Keyframes& keyframes, const WindowMo
       out.push_back(std::move(t));
     }
   }
+}
+
+// The standstills' zero-rate updates on the keyframes' biases.
+void addZeroRateFactors(const Keyframes& keyframes, const WindowModel& model,
+                        std::vector<FactorSpec>& out) {
   if (model.use_gyro) {
     for (Keyframe* kf : keyframes) {
       if (!kf->zero_rate) continue;
@@ -303,7 +308,8 @@ std::vector<FactorSpec> buildFactors(const std::vector<Keyframe*>& keyframes,
   const bool with_offset = time_offset_s != nullptr && estimatesTimeOffset(model);
   const bool offset_used =
       addGyroFactors(keyframes, model, with_offset ? time_offset_s : nullptr, out);
-  addRotationTieAndZeroRateFactors(keyframes, model, out);
+  addRotationTieFactors(keyframes, model, out);
+  addZeroRateFactors(keyframes, model, out);
   addGaugeFactors(kf_of, model, gauge, out);
   // The run's scalar states, each about the rig's value, in every solve that holds the state (a
   // factor of it, or the marginalisation prior): a plausibility bound that holds the time offset
