@@ -162,7 +162,9 @@ std::optional<SE3> WindowCore::keyframePose(int kf_id, bool body) const {
   return body ? state->body : state->vision;
 }
 
-FrameEstimate WindowCore::processFrame(const VisualFrame& frame_in) {
+FrameEstimate WindowCore::processFrame(VisualFrame frame_in) {
+  // Each sighting's row time, once, for every consumer (a rolling shutter; 0 with a global one).
+  for (auto& o : frame_in.observations) o.row_s = model_.rowTime(o.px);
   // A failed frontend frame counts as a frame without any track.
   VisualFrame blind;
   if (!frame_in.frontend_ok) blind.t_ns = frame_in.t_ns;
@@ -334,18 +336,21 @@ std::optional<PoseRefinement> WindowCore::refineAgainstMap(
     const std::unordered_map<TrackId, TrackObservation>& obs, const Prediction& pred,
     std::vector<TrackId>* ids, std::size_t* landmarks_seen) const {
   std::vector<Vec3> points_W, bearings_C;
+  std::vector<SE3> cameras_B;
+  const Readout readout = readoutAt(pred.t_ns, pred.T_W_B, bias_);
   ids->clear();
   for (const auto& [id, o] : obs) {
     if (auto p = map_.pointW(id, setup_.T_B_C)) {
       points_W.push_back(*p);
       bearings_C.push_back(o.bearing_C);
+      cameras_B.push_back(readout.cameraAt(o.row_s, setup_.T_B_C));
       ids->push_back(id);
     }
   }
   *landmarks_seen = points_W.size();
   if (static_cast<int>(points_W.size()) < options_.min_landmark_observations) return std::nullopt;
   auto ref = refinePose(
-      points_W, bearings_C, pred.T_W_B,
+      points_W, bearings_C, cameras_B, pred.T_W_B,
       pred.rotation_prior ? std::optional<Mat3>(pred.T_W_B.linear()) : std::nullopt, pred.rot_sigma,
       model_, options_.motion_only_iterations, options_.outlier_angle_deg * kDegToRad);
   // Enough landmarks fit, and enough of those seen (tracks that crept far during a standstill
@@ -374,15 +379,7 @@ Keyframe* WindowCore::addKeyframe(Timestamp t_ns, const SE3& T_W_B, const Vec3& 
   kf->t_ns = t_ns;
   kf->setPose(T_W_B);
   kf->setBias(bias);
-  if (model_.rolling_shutter_s > 0.0) {
-    // The body's motion through the readout, from the gyro's rate just before the keyframe (the
-    // samples of the readout itself may not have come yet) and the frames' velocity.
-    const Timestamp span = fromSeconds(std::max(model_.rolling_shutter_s, 0.02));
-    if (const auto pi = preintegrate(t_ns - span, t_ns, bias);
-        pi && pi->status() != factors::GyroPreintegration::Status::kNoData)
-      kf->readout_rate_B = so3::log(pi->deltaR()) / toSeconds(span);
-    kf->readout_velocity_B = T_W_B.linear().transpose() * velocity_W_;
-  }
+  kf->readout = readoutAt(t_ns, T_W_B, bias);
   kf->segment = segment_;
   for (const auto& o : observations) {
     TrackObservation& kept = kf->observations[o.track_id] = o;

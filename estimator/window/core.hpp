@@ -67,7 +67,7 @@ class WindowCore {
   void addGyro(const ImuSample& sample);
   void addScan(const LidarScan& scan);
   /// One camera frame's tracks -> the body pose at its time (always finite).
-  FrameEstimate processFrame(const VisualFrame& frame);
+  FrameEstimate processFrame(VisualFrame frame);
   /// Gyro-predicted rotation of the camera from the last processed frame to t (bias-corrected),
   /// R_Ccur_Cprev, for the frontend's matching prior; nullopt without gyro or before any frame.
   std::optional<Mat3> predictRotationCurPrev(Timestamp t_ns) const;
@@ -173,6 +173,7 @@ class WindowCore {
   /// the gyro gave one) and the constant velocity (decaying over long gaps); dt since the last
   /// frame, s.
   struct Prediction {
+    Timestamp t_ns = 0;  // the frame's
     SE3 T_W_B = SE3::Identity();
     double dt = 0.0;
     double rot_sigma = 0.0;
@@ -180,6 +181,10 @@ class WindowCore {
     double rate_radps = 0.0;  // the gyro's mean rate over dt (0 without it)
   };
   Prediction predict(Timestamp t_ns);
+  /// The body's motion through a rolling shutter's readout of the frame at t_ns with pose T_W_B:
+  /// the gyro's rate just before it (the samples of the readout itself may not have come yet;
+  /// bias removed) and the frames' velocity. Zero with a global shutter.
+  Readout readoutAt(Timestamp t_ns, const SE3& T_W_B, const Vec3& bias) const;
   /// The standstill test of the frame with its tracks `obs` and the prediction's gyro rate.
   bool still(const VisualFrame& frame, const std::unordered_map<TrackId, TrackObservation>& obs,
              const Prediction& pred) const;

@@ -127,8 +127,20 @@ void WindowCore::refreshGyroFactors() {
   }
 }
 
+Readout WindowCore::readoutAt(Timestamp t_ns, const SE3& T_W_B, const Vec3& bias) const {
+  Readout r;
+  if (!(model_.rolling_shutter_s > 0.0)) return r;
+  const Timestamp span = fromSeconds(std::max(model_.rolling_shutter_s, 0.02));
+  if (const auto pi = preintegrate(t_ns - span, t_ns, bias);
+      pi && pi->status() != factors::GyroPreintegration::Status::kNoData)
+    r.rate_B = so3::log(pi->deltaR()) / toSeconds(span);
+  r.velocity_B = T_W_B.linear().transpose() * velocity_W_;
+  return r;
+}
+
 WindowCore::Prediction WindowCore::predict(Timestamp t_ns) {
   Prediction pred;
+  pred.t_ns = t_ns;
   pred.dt = toSeconds(t_ns - last_t_);
   pred.T_W_B = last_T_W_B_;
   pred.rot_sigma = options_.rotation_prior_sigma_rad;

@@ -48,23 +48,19 @@ void addBearingFactors(const Keyframes& keyframes, const KeyframesById& kf_of, L
     Keyframe* anchor = anchor_it->second;
     // The anchor's camera pose in its body when it took the landmark's first sighting (a rolling
     // shutter's row).
-    const auto anchor_obs = anchor->observations.find(id);
-    const SE3 T_B_Ca = anchor_obs != anchor->observations.end()
-                           ? sightingExtrinsics(*anchor, anchor_obs->second, model)
-                           : model.T_B_C;
+    const SE3 T_B_Ca = anchorExtrinsics(*anchor, lm, model);
     // With bearing steps each sighting after the first is tied to the previous kept one.
     Keyframe* prev = nullptr;
     for (Keyframe* kf : keyframes) {
       if (kf == anchor) continue;
       auto obs = kf->observations.find(id);
       if (obs == kf->observations.end()) continue;
-      const auto u = factors::predictBearing(lm.bearing_anchor_C, model.T_B_C.linear(),
-                                             model.T_B_C.translation(), anchor->q_W_B,
+      const SE3 T_B_Cj = sightingExtrinsics(*kf, obs->second, model);
+      const auto u = factors::predictBearing(lm.bearing_anchor_C, T_B_Ca, T_B_Cj, anchor->q_W_B,
                                              anchor->p_W_B, kf->q_W_B, kf->p_W_B, lm.rho[0], false);
       if (!u || u->u.dot(obs->second.bearing_C) < std::cos(0.2)) continue;  // gross: > 11 deg
       FactorSpec f;
       f.kind = FactorKind::kBearing;
-      const SE3 T_B_Cj = sightingExtrinsics(*kf, obs->second, model);
       if (model.bearing_steps && prev != nullptr) {
         const TrackObservation& oi = prev->observations.at(id);
         const double frames = std::max(0, obs->second.age - oi.age);
@@ -106,8 +102,8 @@ void addTerrainFactors(const Keyframes& keyframes, const KeyframesById& kf_of, L
       continue;
     FactorSpec f;
     f.kind = FactorKind::kTerrain;
-    f.cost = std::make_unique<factors::TerrainPointFactor>(lm.bearing_anchor_C, model.T_B_C,
-                                                           model.ground_sigma_m);
+    f.cost = std::make_unique<factors::TerrainPointFactor>(
+        lm.bearing_anchor_C, anchorExtrinsics(*a->second, lm, model), model.ground_sigma_m);
     f.loss = std::make_unique<ceres::HuberLoss>(model.ground_huber);
     f.blocks = {a->second->q_W_B, a->second->p_W_B, lm.rho, a->second->terrain};
     f.track = id;
@@ -177,14 +173,15 @@ void addLidarFactors(const Keyframes& keyframes, const KeyframesById& kf_of, Lan
       else
         f.loss = std::make_unique<ceres::HuberLoss>(model.lidar_huber);
       const double sigma = lidarSigma(a, model);
-      if (anchor_it->second == kf) {
+      Keyframe* anchor = anchor_it->second;
+      const SE3 T_B_Ca = anchorExtrinsics(*anchor, lm, model);
+      if (anchor == kf) {
         f.cost = std::make_unique<factors::LidarRangeAnchorFactor>(
-            lm.bearing_anchor_C, a.range_m, model.T_B_C, kf->T_B_L, sigma, a.planar, a.ground_up_L);
+            lm.bearing_anchor_C, a.range_m, T_B_Ca, kf->T_B_L, sigma, a.planar, a.ground_up_L);
         f.blocks = {lm.rho};
       } else {
-        Keyframe* anchor = anchor_it->second;
         f.cost = std::make_unique<factors::LidarRangeFactor>(
-            lm.bearing_anchor_C, a.range_m, model.T_B_C, kf->T_B_L, sigma, a.planar, a.ground_up_L);
+            lm.bearing_anchor_C, a.range_m, T_B_Ca, kf->T_B_L, sigma, a.planar, a.ground_up_L);
         f.blocks = {anchor->q_W_B, anchor->p_W_B, kf->q_W_B, kf->p_W_B, lm.rho};
       }
       f.track = a.track_id;

@@ -17,8 +17,6 @@ constexpr double kDegToRad = M_PI / 180.0;
 
 void triangulateNewLandmarks(WindowMap& map, const Keyframe& kf, const SE3& T_B_C,
                              const WindowOptions& options) {
-  const SE3 T_W_Cn = kf.pose() * T_B_C;
-  const SE3 T_Cn_W = T_W_Cn.inverse();
   const double cos_min = std::cos(options.landmark_min_parallax_deg * kDegToRad);
   for (const auto& [id, o] : kf.observations) {
     if (map.landmarks.count(id)) continue;
@@ -31,8 +29,11 @@ void triangulateNewLandmarks(WindowMap& map, const Keyframe& kf, const SE3& T_B_
       }
     }
     if (anchor == nullptr) continue;
-    const Vec3& b_a = anchor->observations.at(id).bearing_C;
-    const SE3 T_Cn_Ca = T_Cn_W * anchor->pose() * T_B_C;
+    const TrackObservation& oa = anchor->observations.at(id);
+    const Vec3& b_a = oa.bearing_C;
+    // Both cameras at their sightings' rows (a rolling shutter).
+    const SE3 T_Cn_Ca =
+        (kf.pose() * kf.cameraAt(o, T_B_C)).inverse() * anchor->pose() * anchor->cameraAt(oa, T_B_C);
     if ((T_Cn_Ca.linear() * b_a).dot(o.bearing_C) > cos_min) continue;
     const auto p =
         frontend::triangulateMidpoint(T_Cn_Ca.linear(), T_Cn_Ca.translation(), b_a, o.bearing_C);
@@ -41,6 +42,7 @@ void triangulateNewLandmarks(WindowMap& map, const Keyframe& kf, const SE3& T_B_
     lm.id = id;
     lm.anchor_kf = anchor->id;
     lm.bearing_anchor_C = b_a;
+    lm.anchor_row_s = oa.row_s;
     // Far triangulations are poor: such a landmark starts at infinity (its rotation information
     // counts at once, the solve may bring it nearer).
     lm.rho[0] = p->depth_prev > options.landmark_max_depth_m ? 0.0 : 1.0 / p->depth_prev;

@@ -3,6 +3,7 @@
 
 #include <algorithm>
 
+#include "common/so3.hpp"
 #include "factors/parameterization.hpp"
 
 namespace ovo::estimator {
@@ -18,6 +19,14 @@ SE3 Keyframe::bodyPose() const {
   SE3 T = pose();
   T.linear() = factors::quatFromBlock(q_W_G).toRotationMatrix();
   return T;
+}
+
+SE3 Readout::cameraAt(double row_s, const SE3& T_B_C) const {
+  if (row_s == 0.0) return T_B_C;
+  SE3 T_B0_B = SE3::Identity();  // the body at the row's time, in the frame's body frame
+  T_B0_B.linear() = so3::exp(rate_B * row_s);
+  T_B0_B.translation() = velocity_B * row_s;
+  return T_B0_B * T_B_C;
 }
 
 void Keyframe::setPose(const SE3& T_W_B) {
@@ -54,7 +63,7 @@ const Keyframe* WindowMap::find(int kf_id) const {
 std::optional<Vec3> WindowMap::pointW(const Landmark& lm, const SE3& T_B_C) const {
   const Keyframe* anchor = find(lm.anchor_kf);
   if (anchor == nullptr || !(lm.rho[0] > 1e-9)) return std::nullopt;
-  const Vec3 p_W = anchor->pose() * (T_B_C * (lm.bearing_anchor_C / lm.rho[0]));
+  const Vec3 p_W = anchor->pose() * (anchor->cameraAt(lm.anchor_row_s, T_B_C) * (lm.bearing_anchor_C / lm.rho[0]));
   if (!p_W.allFinite()) return std::nullopt;
   return p_W;
 }

@@ -29,6 +29,10 @@ struct TrackObservation {
   /// factors::BearingFactor::tangentBasis(bearing_C)); zero when not known (a keyframe's
   /// observations get it).
   Mat2 px_per_rad = Mat2::Zero();
+  /// When a rolling shutter exposed this sighting's row, s after the frame's time (its first
+  /// row's); 0 with a global shutter. Set once as the frame enters the window (WindowModel::
+  /// rowTime), so that every consumer places the camera at the same time (Keyframe::cameraAt).
+  double row_s = 0.0;
 };
 
 /// What the frontend hands the window core for one camera frame.
@@ -37,6 +41,19 @@ struct VisualFrame {
   std::vector<TrackObservation> observations;
   bool frontend_ok = true;       // false: the frontend failed on this frame (no usable tracks)
   double median_flow_px = -1.0;  // to the previous frame (< 0: unknown, computed from tracks)
+};
+
+/// The body's motion while a rolling shutter reads an image out: angular rate and velocity in the
+/// body frame at the frame's time (its first row's).
+struct Readout {
+  Vec3 rate_B = Vec3::Zero();      // rad/s
+  Vec3 velocity_B = Vec3::Zero();  // m/s
+  /// The camera's pose in the body of the frame's time when the row of time row_s (s after the
+  /// frame's time, TrackObservation::row_s) was exposed: the rig's T_B_C moved by this motion
+  /// over row_s. The one model of where the camera was when a row was exposed: bearings,
+  /// landmarks' points, LiDAR and terrain factors, re-anchoring, per-frame tracking and the
+  /// outlier test all go through it.
+  SE3 cameraAt(double row_s, const SE3& T_B_C) const;
 };
 
 /// A LiDAR beam associated with a landmark at a keyframe.
@@ -87,12 +104,14 @@ struct Keyframe {
   };
   std::optional<ZeroRate> zero_rate;
   /// The body's motion while a rolling shutter reads the image out (the keyframe's pose is its
-  /// first row's): angular rate and velocity in the body frame at the keyframe (zero with a
-  /// global shutter; see sightingExtrinsics in sighting.hpp).
-  Vec3 readout_rate_B = Vec3::Zero();
-  Vec3 readout_velocity_B = Vec3::Zero();
+  /// first row's; zero with a global shutter).
+  Readout readout;
 
   SE3 pose() const;                // as the vision sees it: q_W_B, p_W_B
+  /// The camera's pose in this keyframe's body row_s after its time (Readout::cameraAt).
+  SE3 cameraAt(double row_s, const SE3& T_B_C) const { return readout.cameraAt(row_s, T_B_C); }
+  /// The same at a sighting's row (o.row_s).
+  SE3 cameraAt(const TrackObservation& o, const SE3& T_B_C) const { return cameraAt(o.row_s, T_B_C); }
   SE3 bodyPose() const;            // the body's estimate: q_W_G, p_W_B (the output)
   void setPose(const SE3& T_W_B);  // sets q_W_G to the same orientation
   /// Copies the states (q_W_B, q_W_G, p_W_B, b_g, terrain) of another keyframe, e.g. a batch
@@ -107,6 +126,9 @@ struct Landmark {
   TrackId id = 0;
   int anchor_kf = -1;  // Keyframe::id
   Vec3 bearing_anchor_C = Vec3::UnitZ();
+  /// The anchor sighting's row time (TrackObservation::row_s): the anchor camera is
+  /// anchor.cameraAt(anchor_row_s, T_B_C), in every factor and in pointW.
+  double anchor_row_s = 0.0;
   double rho[1] = {0.1};              // 1/m
   bool on_ground = false;             // has a camera-height factor (labelled by the plane fit)
   Vec3 ground_up_C = -Vec3::UnitY();  // ground normal in the anchor camera frame (unit, up)
@@ -133,7 +155,8 @@ class WindowMap {
   Keyframe& newest() { return *keyframes.back(); }
   bool empty() const { return keyframes.empty(); }
 
-  /// World point of a landmark, or nullopt when its anchor is gone or rho is not positive.
+  /// World point of a landmark (from its anchor camera at the anchor sighting's row), or nullopt
+  /// when its anchor is gone or rho is not positive.
   std::optional<Vec3> pointW(const Landmark& lm, const SE3& T_B_C) const;
   /// The same for the landmark of a track; nullopt also when the track has no landmark.
   std::optional<Vec3> pointW(TrackId id, const SE3& T_B_C) const;

@@ -88,10 +88,10 @@ MarginalizationPlan planMarginalization(const WindowMap& map, const SE3& T_B_C,
       const Keyframe& kf = *map.keyframes[k];
       auto o = kf.observations.find(id);
       if (o == kf.observations.end()) continue;
-      const Vec3 p_C = (kf.pose() * T_B_C).inverse() * *p_W;
+      const Vec3 p_C = (kf.pose() * kf.cameraAt(o->second, T_B_C)).inverse() * *p_W;
       const double depth = o->second.bearing_C.dot(p_C);
       if (depth > options.landmark_min_depth_m)
-        reanchor[id] = {kf.id, o->second.bearing_C, 1.0 / depth};
+        reanchor[id] = {kf.id, o->second.bearing_C, 1.0 / depth, o->second.row_s};
       break;
     }
   }
@@ -131,6 +131,7 @@ void reanchorLandmarks(WindowMap& map, int oldest_id, const MarginalizationPlan&
     }
     lm.anchor_kf = r->second.kf_id;
     lm.bearing_anchor_C = r->second.bearing_C;
+    lm.anchor_row_s = r->second.row_s;
     lm.rho[0] = r->second.rho;
     lm.on_ground = false;  // labelled again against the new anchor's plane
     ++it;

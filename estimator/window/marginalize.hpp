@@ -17,7 +17,8 @@ namespace ovo::estimator {
 struct Reanchor {
   int kf_id = -1;
   Vec3 bearing_C = Vec3::UnitZ();
-  double rho = 0.0;  // 1/m
+  double rho = 0.0;    // 1/m
+  double row_s = 0.0;  // the new anchor sighting's row time (TrackObservation::row_s)
 };
 
 /// What marginalising the oldest keyframe does with the landmarks it anchors.

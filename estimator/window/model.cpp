@@ -1,6 +1,7 @@
 // The window's model constants from the rig and the options.
 #include "estimator/window/model.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 #include "camera/camera.hpp"
@@ -9,6 +10,11 @@ namespace ovo::estimator {
 
 bool tiedRotations(const WindowModel& model) {
   return model.use_gyro && model.vision_rotation_sigma_rad > 0.0;
+}
+
+double WindowModel::rowTime(const Vec2& px) const {
+  if (!(rolling_shutter_s > 0.0) || !(image_rows > 0.0)) return 0.0;
+  return rolling_shutter_s * std::clamp(px.y() / image_rows, 0.0, 1.0);
 }
 
 WindowModel makeWindowModel(const SensorSetup& setup, const WindowOptions& options) {

@@ -40,6 +40,8 @@ struct WindowModel {
   // this (s; 0: a global shutter, the rig's T_B_C for every sighting).
   double rolling_shutter_s = 0.0;
   double image_rows = 480.0;
+  /// When the row of pixel px is exposed, s after the frame's time (TrackObservation::row_s).
+  double rowTime(const Vec2& px) const;
   // The camera-gyro time offset on top of the rig's (WindowMap::time_offset_s): estimated with
   // this prior sigma about 0 when > 0 and there is a gyro, else held at its value.
   double time_offset_sigma_s = 0.0;

@@ -12,12 +12,17 @@
 namespace ovo::estimator {
 
 std::optional<PoseRefinement> refinePose(const std::vector<Vec3>& points_W,
-                                         const std::vector<Vec3>& bearings_C, const SE3& T_W_B_init,
+                                         const std::vector<Vec3>& bearings_C,
+                                         const std::vector<SE3>& cameras_B, const SE3& T_W_B_init,
                                          const std::optional<Mat3>& R_W_B_prior,
                                          double prior_sigma_rad, const WindowModel& model,
                                          int max_iterations, double outlier_rad) {
   const std::size_t n = points_W.size();
-  if (n < 3 || bearings_C.size() != n) return std::nullopt;
+  if (n < 3 || bearings_C.size() != n || (!cameras_B.empty() && cameras_B.size() != n))
+    return std::nullopt;
+  const auto camera = [&](std::size_t i) -> const SE3& {
+    return cameras_B.empty() ? model.T_B_C : cameras_B[i];
+  };
   // Each point as an anchor at the world origin with identity rotation: b_a = p_W - t_B_C
   // direction is awkward; instead anchor it in a virtual body frame at p_W - R t_B_C.
   struct Anchor {
@@ -50,8 +55,13 @@ std::optional<PoseRefinement> refinePose(const std::vector<Vec3>& points_W,
   problem.AddParameterBlock(q, 4, factors::newQuaternionManifold());
   problem.AddParameterBlock(p, 3);
   for (std::size_t i = 0; i < n; ++i) {
-    auto* cost = new factors::BearingFactor(anchors[i].bearing, bearings_C[i], model.T_B_C,
-                                            model.bearing_sigma_rad);
+    // (The virtual anchor's camera is the rig's; the frame's is at its sighting's row.)
+    auto* cost = camera(i).matrix() == model.T_B_C.matrix()
+                     ? new factors::BearingFactor(anchors[i].bearing, bearings_C[i], model.T_B_C,
+                                                  model.bearing_sigma_rad)
+                     : new factors::BearingFactor(anchors[i].bearing, bearings_C[i], model.T_B_C,
+                                                  camera(i),
+                                                  Mat2::Identity() / model.bearing_sigma_rad);
     problem.AddResidualBlock(cost, new ceres::HuberLoss(model.bearing_huber),
                              {anchors[i].q, anchors[i].p, q, p, anchors[i].rho});
     problem.SetParameterBlockConstant(anchors[i].q);
@@ -79,11 +89,10 @@ std::optional<PoseRefinement> refinePose(const std::vector<Vec3>& points_W,
   out.T_W_B.linear() = factors::quatFromBlock(q).toRotationMatrix();
   out.T_W_B.translation() = Vec3(p[0], p[1], p[2]);
   if (!allFinite(out.T_W_B)) return std::nullopt;
-  const SE3 T_C_W = (out.T_W_B * model.T_B_C).inverse();
   out.inlier.resize(n, 0);
   const double cos_max = std::cos(outlier_rad);
   for (std::size_t i = 0; i < n; ++i) {
-    const Vec3 p_C = T_C_W * points_W[i];
+    const Vec3 p_C = (out.T_W_B * camera(i)).inverse() * points_W[i];
     const double norm = p_C.norm();
     if (norm > 0.0 && p_C.dot(bearings_C[i]) / norm > cos_max) {
       out.inlier[i] = 1;

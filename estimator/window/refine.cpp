@@ -32,17 +32,23 @@ std::unique_ptr<Keyframe> batchCopy(const Keyframe& kf) {
   b->preint_from_prev = kf.preint_from_prev;
   b->segment = kf.segment;
   b->zero_rate = kf.zero_rate;
-  b->readout_rate_B = kf.readout_rate_B;  // a rolling shutter's rows
-  b->readout_velocity_B = kf.readout_velocity_B;
+  b->readout = kf.readout;  // a rolling shutter's rows
   return b;
 }
 
 /// Inverse depth of a piece along its anchor bearing: from the last window estimate of the track,
 /// else the midpoint triangulation against the sighting of widest parallax at the current poses.
 std::optional<double> initialRho(const std::vector<const Keyframe*>& seen,
-                                 const std::vector<Vec3>& bearings_C, const Vec3* point_W,
-                                 const WindowModel& model, const WindowOptions& options) {
-  const SE3 T_W_Ca = seen.front()->pose() * model.T_B_C;
+                                 const std::vector<TrackObservation>& sightings,
+                                 const Vec3* point_W, const WindowModel& model,
+                                 const WindowOptions& options) {
+  // Each camera at its sighting's row (a rolling shutter).
+  const auto T_W_C = [&](std::size_t k) {
+    return seen[k]->pose() * seen[k]->cameraAt(sightings[k], model.T_B_C);
+  };
+  std::vector<Vec3> bearings_C;
+  for (const auto& o : sightings) bearings_C.push_back(o.bearing_C);
+  const SE3 T_W_Ca = T_W_C(0);
   const Vec3& b_a = bearings_C.front();
   if (point_W != nullptr) {
     const double depth = b_a.dot(T_W_Ca.inverse() * *point_W);
@@ -52,12 +58,12 @@ std::optional<double> initialRho(const std::vector<const Keyframe*>& seen,
   double best_cos = std::cos(options.landmark_min_parallax_deg * kDegToRad);
   std::size_t best = 0;
   for (std::size_t k = 1; k < seen.size(); ++k) {
-    const Mat3 R_Ck_Ca = (seen[k]->pose() * model.T_B_C).linear().transpose() * T_W_Ca.linear();
+    const Mat3 R_Ck_Ca = T_W_C(k).linear().transpose() * T_W_Ca.linear();
     const double c = (R_Ck_Ca * b_a).dot(bearings_C[k]);
     if (c < best_cos) best_cos = c, best = k;
   }
   if (best == 0) return std::nullopt;
-  const SE3 T_Ck_Ca = (seen[best]->pose() * model.T_B_C).inverse() * T_W_Ca;
+  const SE3 T_Ck_Ca = T_W_C(best).inverse() * T_W_Ca;
   const auto p =
       frontend::triangulateMidpoint(T_Ck_Ca.linear(), T_Ck_Ca.translation(), b_a, bearings_C[best]);
   if (!p || p->depth_prev < options.landmark_min_depth_m ||
@@ -121,20 +127,21 @@ RefineInfo refineKeyframes(const std::vector<Keyframe*>& keyframes,
         ++end;
       if (end - start >= 2) {
         std::vector<const Keyframe*> seen;
-        std::vector<Vec3> bearings_C;
+        std::vector<TrackObservation> sightings;
         for (std::size_t i = start; i < end; ++i) {
           seen.push_back(kfs[ks[i]]);
-          bearings_C.push_back(keyframes[ks[i]]->observations.at(track).bearing_C);
+          sightings.push_back(keyframes[ks[i]]->observations.at(track));
         }
         const auto p = points_W.find(track);
-        const auto rho = initialRho(seen, bearings_C, p == points_W.end() ? nullptr : &p->second,
+        const auto rho = initialRho(seen, sightings, p == points_W.end() ? nullptr : &p->second,
                                     model, options);
         if (rho) {
           const TrackId piece = next_piece++;
           Landmark lm;
           lm.id = piece;
           lm.anchor_kf = kfs[ks[start]]->id;
-          lm.bearing_anchor_C = bearings_C.front();
+          lm.bearing_anchor_C = sightings.front().bearing_C;
+          lm.anchor_row_s = sightings.front().row_s;
           lm.rho[0] = *rho;
           landmarks[piece] = lm;
           for (std::size_t i = start; i < end; ++i) {
@@ -220,8 +227,9 @@ RefineInfo refineKeyframes(const std::vector<Keyframe*>& keyframes,
       info.removed_outliers += std::erase_if(kf->lidar, [&](const LidarAssociation& a) {
         const auto lm = landmarks.find(a.track_id);
         if (lm == landmarks.end() || !(lm->second.rho[0] > 1e-9)) return true;
-        const Vec3 p_W = kf_of.at(lm->second.anchor_kf)->pose() *
-                         (model.T_B_C * (lm->second.bearing_anchor_C / lm->second.rho[0]));
+        const Keyframe& anchor = *kf_of.at(lm->second.anchor_kf);
+        const Vec3 p_W = anchor.pose() * (anchorExtrinsics(anchor, lm->second, model) *
+                                          (lm->second.bearing_anchor_C / lm->second.rho[0]));
         return lidarOutlier(a, p_W, *kf, model, options.lidar_outlier_sigmas,
                             options.lidar_outlier_fraction);
       });

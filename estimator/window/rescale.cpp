@@ -19,7 +19,7 @@ void rescaleWindow(double s, WindowMap& map, WindowGauge& gauge, FrameLog& frame
     if (kf->terrain_set) factors::scaleTerrain(kf->terrain, centre, s);
     moved.push_back({kf->terrain, terrain.M, terrain.k});
     kf->lidar_rejected.clear();
-    kf->readout_velocity_B *= s;  // a rolling shutter's motion through the readout
+    kf->readout.velocity_B *= s;  // a rolling shutter's motion through the readout
   }
   for (auto& [id, lm] : map.landmarks) lm.rho[0] /= s;
   if (gauge.marginalization) gauge.marginalization = gauge.marginalization->mapped(moved);

@@ -26,12 +26,11 @@ Mat2 sightingSqrtInformation(const TrackObservation& o, double sigma_px, const W
 }
 
 SE3 sightingExtrinsics(const Keyframe& kf, const TrackObservation& o, const WindowModel& model) {
-  if (!(model.rolling_shutter_s > 0.0) || !(model.image_rows > 0.0)) return model.T_B_C;
-  const double dt = model.rolling_shutter_s * std::clamp(o.px.y() / model.image_rows, 0.0, 1.0);
-  SE3 T_B0_B = SE3::Identity();  // the body at the row's time, in the keyframe's body frame
-  T_B0_B.linear() = so3::exp(kf.readout_rate_B * dt);
-  T_B0_B.translation() = kf.readout_velocity_B * dt;
-  return T_B0_B * model.T_B_C;
+  return kf.cameraAt(o, model.T_B_C);
+}
+
+SE3 anchorExtrinsics(const Keyframe& anchor, const Landmark& lm, const WindowModel& model) {
+  return anchor.cameraAt(lm.anchor_row_s, model.T_B_C);
 }
 
 std::vector<ObservationError> observationErrors(const std::vector<Keyframe*>& keyframes,
@@ -39,18 +38,18 @@ std::vector<ObservationError> observationErrors(const std::vector<Keyframe*>& ke
                                                 const WindowModel& model) {
   std::vector<ObservationError> out;
   const auto kf_of = keyframesById(keyframes);
-  const Mat3 R_B_C = model.T_B_C.linear();
-  const Vec3 t_B_C = model.T_B_C.translation();
   for (const auto& [id, lm] : lms) {
     auto a = kf_of.find(lm.anchor_kf);
     if (a == kf_of.end() || !(lm.rho[0] >= 0.0)) continue;
     const Keyframe& anchor = *a->second;
+    const SE3 T_B_Ca = anchorExtrinsics(anchor, lm, model);
     for (const Keyframe* kf : keyframes) {
       if (kf == &anchor) continue;
       auto obs = kf->observations.find(id);
       if (obs == kf->observations.end()) continue;
       const TrackObservation& o = obs->second;
-      const auto u = factors::predictBearing(lm.bearing_anchor_C, R_B_C, t_B_C, anchor.q_W_B,
+      const auto u = factors::predictBearing(lm.bearing_anchor_C, T_B_Ca,
+                                             sightingExtrinsics(*kf, o, model), anchor.q_W_B,
                                              anchor.p_W_B, kf->q_W_B, kf->p_W_B, lm.rho[0], false);
       if (!u) {
         out.push_back({kf->id, id, M_PI, std::numeric_limits<double>::infinity()});

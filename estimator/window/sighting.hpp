@@ -24,10 +24,11 @@ double anchorSigmaPx(const Keyframe& anchor, const TrackObservation& o, const Wi
 /// over sigma_px (bearing_sigma_from_camera and known), else focal_px / sigma_px.
 Mat2 sightingSqrtInformation(const TrackObservation& o, double sigma_px, const WindowModel& model);
 
-/// The camera's pose in the body of keyframe kf when it took sighting o: the rig's T_B_C, moved
-/// by the body's motion from the keyframe's time to o's row's (Keyframe::readout_rate_B and
-/// readout_velocity_B over rolling_shutter_s * row / image_rows) with a rolling shutter.
+/// The camera's pose in the body of keyframe kf when it took sighting o (Keyframe::cameraAt at
+/// o's row).
 SE3 sightingExtrinsics(const Keyframe& kf, const TrackObservation& o, const WindowModel& model);
+/// The camera of a landmark's anchor sighting in its anchor keyframe's body.
+SE3 anchorExtrinsics(const Keyframe& anchor, const Landmark& lm, const WindowModel& model);
 
 /// Angular error (rad) of every bearing observation at the current states, by (kf id, track).
 struct ObservationError {

@@ -355,6 +355,8 @@ void WindowCore::startWindow(const VisualFrame& frame, const InitialGeometry& g)
     lm.id = g.ids[tv.points_index[k]];
     lm.anchor_kf = kf0->id;
     lm.bearing_anchor_C = g.b0[tv.points_index[k]];
+    if (const auto o = kf0->observations.find(lm.id); o != kf0->observations.end())
+      lm.anchor_row_s = o->second.row_s;
     lm.rho[0] = depth > options_.landmark_max_depth_m ? 0.0 : 1.0 / depth;  // far: at infinity
     map_.landmarks[lm.id] = lm;
   }
@@ -394,17 +396,20 @@ void WindowCore::startWindow(const VisualFrame& frame, const InitialGeometry& g)
   for (const auto& [index, seen] : ref.pending) {
     FrameRecord* record = frames_.record(static_cast<std::size_t>(index));
     if (index <= ref.frame_index || record == nullptr) continue;
+    FrameRecord& r = *record;
     std::vector<Vec3> points_W, bearings_C;
+    std::vector<SE3> cameras_B;
+    const Readout readout = readoutAt(r.t_ns, r.T_W_B, bias_);
     for (const TrackObservation& o : seen) {
       if (auto p = map_.pointW(o.track_id, setup_.T_B_C)) {
         points_W.push_back(*p);
         bearings_C.push_back(o.bearing_C);
+        cameras_B.push_back(readout.cameraAt(o.row_s, setup_.T_B_C));
       }
     }
     if (static_cast<int>(points_W.size()) < options_.min_landmark_observations) continue;
-    FrameRecord& r = *record;
     const auto refined = refinePose(
-        points_W, bearings_C, r.T_W_B, r.T_W_B.linear(), options_.rotation_prior_sigma_rad, model_,
+        points_W, bearings_C, cameras_B, r.T_W_B, r.T_W_B.linear(), options_.rotation_prior_sigma_rad, model_,
         options_.motion_only_iterations, options_.outlier_angle_deg * kDegToRad);
     if (!refined || refined->num_inliers < options_.min_landmark_observations) continue;
     r.T_W_B = refined->T_W_B;

@@ -131,7 +131,9 @@ TEST(InterpolateRange, AScanRepublishedAs0To2PiOrWithANegativeIncrementReadsTheS
     for (const LidarScan* other : {&circle, &reversed}) {
       const auto o = interpolateRange(*other, phi, 0.05, 2);
       ASSERT_EQ(r.has_value(), o.has_value()) << deg << " deg";
-      if (r) EXPECT_NEAR(*r, *o, 1e-9) << deg << " deg";
+      if (r) {
+        EXPECT_NEAR(*r, *o, 1e-9) << deg << " deg";
+      }
     }
     read += r.has_value();
   }
