@@ -30,9 +30,17 @@ std::vector<BeamInImage> WindowLidar::usableBeams(const FrameScan& scan) const {
                      options_.lidar_edge_step, options_.lidar_edge_neighbours);
 }
 
-std::vector<LidarRange> WindowLidar::rangesAt(const Keyframe& kf, const WindowMap& map) const {
+std::vector<LidarRange> WindowLidar::rangesAt(const Keyframe& kf, const WindowMap& map,
+                                              double scale) const {
   std::vector<LidarRange> out;
   const SE3 T_L_W = (kf.pose() * kf.T_B_L).inverse();
+  // At another scale: each point scaled about the keyframe's camera, as a rescale by `scale`
+  // would put it as the keyframe sees it.
+  const SE3 T_C_W = (kf.pose() * setup_.T_B_C).inverse();
+  const SE3 T_L_C_scaled = cameraFromLidar(setup_.T_B_C, kf.T_B_L).inverse();
+  const auto inLidar = [&](const Vec3& p_W) -> Vec3 {
+    return scale == 1.0 ? Vec3(T_L_W * p_W) : Vec3(T_L_C_scaled * (scale * (T_C_W * p_W)));
+  };
   if (options_.lidar_interpolate) {
     // Every landmark the keyframe sees whose point lies within a small elevation of the scan
     // plane: the scan's range interpolated at its azimuth (no pixel-radius offset along the scan).
@@ -51,7 +59,7 @@ std::vector<LidarRange> WindowLidar::rangesAt(const Keyframe& kf, const WindowMa
     for (const auto& [id, o] : kf.observations) {
       const auto p_W = map.pointW(id, setup_.T_B_C);
       if (!p_W) continue;
-      const Vec3 p_L = T_L_W * *p_W;
+      const Vec3 p_L = inLidar(*p_W);
       const double d_xy = p_L.head<2>().norm();
       if (!(d_xy > 1e-3) || std::abs(p_L.z()) > max_tan_elevation * d_xy) continue;
       const double phi = std::atan2(p_L.y(), p_L.x());
@@ -77,7 +85,7 @@ std::vector<LidarRange> WindowLidar::rangesAt(const Keyframe& kf, const WindowMa
   for (const LidarAssociation& c : kf.lidar_candidates) {
     const auto p_W = map.pointW(c.track_id, setup_.T_B_C);
     if (!p_W) continue;
-    out.push_back({c, (T_L_W * *p_W).norm(), c.range_m, false});
+    out.push_back({c, inLidar(*p_W).norm(), c.range_m, false});
   }
   return out;
 }
@@ -95,15 +103,20 @@ void WindowLidar::associate(Keyframe& kf, const WindowMap& map, bool gate_depth)
   }
 }
 
-std::optional<double> WindowLidar::scaleRatio(const WindowMap& map) const {
-  // Every range the window's keyframes measure to a landmark they see, gated or rejected or not:
-  // the gates are what a wrong scale defeats. Ground beams are left out (their range hangs on
-  // the plane's elevation, not on the scale alone).
+std::vector<std::pair<double, TrackId>> WindowLidar::rangeRatios(const WindowMap& map,
+                                                                 double scale) const {
+  // Ground beams are left out (their range hangs on the plane's elevation, not on the scale
+  // alone).
   std::vector<std::pair<double, TrackId>> ratios;
   for (const auto& kf : map.keyframes)
-    for (const LidarRange& r : rangesAt(*kf, map))
+    for (const LidarRange& r : rangesAt(*kf, map, scale))
       if (!r.ground && r.measured_m > 0.0)
         ratios.emplace_back(r.landmark_m / r.measured_m, r.association.track_id);
+  return ratios;
+}
+
+std::optional<double> WindowLidar::agreedRatio(
+    const std::vector<std::pair<double, TrackId>>& ratios) const {
   if (static_cast<int>(ratios.size()) < options_.lidar_rescale_min_ranges) return std::nullopt;
   std::vector<double> values;
   for (const auto& [ratio, id] : ratios) values.push_back(ratio);
@@ -121,6 +134,48 @@ std::optional<double> WindowLidar::scaleRatio(const WindowMap& map) const {
       2 * agree.size() < ratios.size() || tracks.size() < 3)
     return std::nullopt;
   return upperMedian(agree);
+}
+
+std::optional<double> WindowLidar::scaleRatio(const WindowMap& map) const {
+  // Every range the window's keyframes measure to a landmark they see, gated or rejected or not:
+  // the gates are what a wrong scale defeats.
+  const auto ratios = rangeRatios(map, 1.0);
+  if (const auto agreed = agreedRatio(ratios)) return agreed;
+  if (!options_.lidar_interpolate) return std::nullopt;
+  // No agreement at the window's scale. The ranges are read where the landmarks' points cross
+  // the scan plane, so at a wrong scale they are the ranges of the wrong landmarks (those the
+  // plane crosses at that scale) and disagree among themselves: the disagreement does not show
+  // as one ratio. Look for the scale at which the scan agrees with the map: the one at which the
+  // most ranges (from at least three landmarks) meet their landmarks within half the agreement,
+  // when that is at least lidar_rescale_min_ranges and twice as many as at the window's own.
+  const double half = 0.5 * options_.lidar_rescale_agreement;
+  const auto support = [&](const std::vector<std::pair<double, TrackId>>& rs) {
+    std::unordered_set<TrackId> tracks;
+    int n = 0;
+    for (const auto& [ratio, id] : rs)
+      if (std::abs(ratio - 1.0) <= half) {
+        ++n;
+        tracks.insert(id);
+      }
+    return tracks.size() < 3 ? 0 : n;
+  };
+  const int at_one = support(ratios);
+  constexpr double kStep = 0.04;  // log-scale step, below the half-agreement band
+  constexpr int kSteps = 35;      // scales from 0.25 to 4
+  int best = 0;
+  double best_scale = 1.0;
+  for (int k = -kSteps; k <= kSteps; ++k) {
+    const double s = std::exp(kStep * k);
+    if (std::abs(s - 1.0) <= options_.lidar_rescale_ratio) continue;
+    const int n = support(rangeRatios(map, s));
+    if (n > best) best = n, best_scale = s;
+  }
+  if (best < options_.lidar_rescale_min_ranges || best < 2 * at_one) return std::nullopt;
+  // At that scale the ranges must pass the test the window's own scale failed.
+  const auto agreed = agreedRatio(rangeRatios(map, best_scale));
+  if (!agreed || std::abs(*agreed - 1.0) > half) return std::nullopt;
+  // In the window's units: a landmark's distance there is its distance at best_scale over it.
+  return *agreed / best_scale;
 }
 
 LidarScaleVote voteLidarScale(std::vector<double> ratios, std::optional<double> ground_scale,

@@ -5,6 +5,7 @@
 #pragma once
 
 #include <optional>
+#include <utility>
 #include <vector>
 
 #include "estimator/estimator.hpp"
@@ -34,16 +35,28 @@ class WindowLidar {
   /// Beams paired with the observations (nearest within lidar_radius_px); none without a scan.
   std::vector<LidarAssociation> candidates(const std::vector<TrackObservation>& observations,
                                            const std::optional<FrameScan>& scan) const;
-  /// Every range the keyframe's scan measures to a landmark the window has for a track it sees.
-  std::vector<LidarRange> rangesAt(const Keyframe& kf, const WindowMap& map) const;
+  /// Every range the keyframe's scan measures to a landmark the window has for a track it sees;
+  /// with scale != 1, as if the window were scaled by it (each point scaled about the keyframe's
+  /// camera, LidarRange::landmark_m at that scale).
+  std::vector<LidarRange> rangesAt(const Keyframe& kf, const WindowMap& map,
+                                   double scale = 1.0) const;
   /// Pairs the keyframe's landmarks with its scan's ranges (gate_depth: only those within
   /// lidar_depth_gate of the landmark's distance), except those paired or rejected before.
   void associate(Keyframe& kf, const WindowMap& map, bool gate_depth) const;
   /// The window's landmark distances over the LiDAR's ranges to them, when enough ranges from
-  /// enough landmarks agree on one ratio (lidar_rescale_*); nullopt otherwise.
+  /// enough landmarks agree on one ratio (lidar_rescale_*); else, with interpolated ranges, the
+  /// ratio of the scale between 0.25 and 4 at which the scan agrees with the map when it agrees
+  /// there clearly better than at the window's own (a wrong scale makes the ranges disagree
+  /// among themselves, not agree on another ratio); nullopt otherwise.
   std::optional<double> scaleRatio(const WindowMap& map) const;
 
  private:
+  /// The window's non-ground ranges' landmark distance over range, with their tracks, at scale.
+  std::vector<std::pair<double, TrackId>> rangeRatios(const WindowMap& map, double scale) const;
+  /// The median of the ratios when at least lidar_rescale_min_ranges of them, half of them and
+  /// three landmarks agree with it within lidar_rescale_agreement.
+  std::optional<double> agreedRatio(const std::vector<std::pair<double, TrackId>>& ratios) const;
+
   const SensorSetup& setup_;
   const WindowOptions& options_;
 };
