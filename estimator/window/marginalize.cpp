@@ -35,9 +35,18 @@ std::shared_ptr<const factors::MarginalizationInfo> marginalizeOldest(
   for (const FactorSpec& f : all) {
     bool touches = false;
     for (const double* b : f.blocks) touches = touches || drop.count(b) > 0;
+    // A landmark anchored in the oldest keyframe and not re-anchored ends here: its factors leave
+    // the window with it, also those on its inverse depth alone (the anchor's own LiDAR range,
+    // its camera-height factor), which touch none of the dropped states when it is not
+    // marginalised.
+    bool ends_here = false;
+    if (f.track >= 0 && !plan.reanchor.count(f.track)) {
+      const auto it = map.landmarks.find(f.track);
+      ends_here = it != map.landmarks.end() && it->second.anchor_kf == oldest->id;
+    }
     // The previous prior always goes on into the new one, whether it touches the oldest
     // keyframe's states or not.
-    if (!touches && f.kind != FactorKind::kMarginal) continue;  // stays in the window
+    if (!touches && !ends_here && f.kind != FactorKind::kMarginal) continue;  // stays
     Fate fate = Fate::kPrior;
     if (f.track >= 0) {
       const auto it = map.landmarks.find(f.track);

@@ -110,6 +110,29 @@ TEST(MarginalizeOldest, ALandmarkNotSelectedIsDropped) {
   EXPECT_TRUE(!info || (!keeps(*info, *map.keyframes[1]) && !keeps(*info, *map.keyframes[2])));
 }
 
+// A landmark that ends with the oldest keyframe without going into the prior takes all its
+// measurements with it, also those on its inverse depth alone (the anchor's own LiDAR range, its
+// camera-height factor): the ledger says they were dropped. They used to have no entry.
+TEST(MarginalizeOldest, ADroppedLandmarksFactorsOnItsDepthAloneAreRecordedAsDropped) {
+  WindowMap map = threeKeyframesOneLandmark();
+  Keyframe& anchor = *map.keyframes.front();
+  LidarAssociation a;
+  a.track_id = kTrack;
+  a.range_m = (*map.pointW(kTrack, SE3::Identity()) - anchor.pose().translation()).norm();
+  anchor.lidar.push_back(a);
+  Landmark& lm = map.landmarks.at(kTrack);
+  lm.on_ground = true;
+  lm.ground_up_C = Vec3(0.0, -1.0, 0.0);
+  WindowModel m = model();
+  m.camera_height_m = 1.0;
+  FactorLedger ledger;
+  marginalizeOldest(map, m, gaugeOnTheOldest(), {}, &ledger);
+  EXPECT_EQ(ledger.fate({FactorKind::kLidar, kTrack, 10}), FactorLedger::Fate::kDropped);
+  EXPECT_EQ(ledger.fate({FactorKind::kGround, kTrack, 10}), FactorLedger::Fate::kDropped);
+  EXPECT_EQ(ledger.fate({FactorKind::kBearing, kTrack, 11}), FactorLedger::Fate::kDropped);
+  EXPECT_EQ(ledger.fate({FactorKind::kBearing, kTrack, 12}), FactorLedger::Fate::kDropped);
+}
+
 // The LiDAR range that the new anchor of a re-anchored landmark measures stays in the window: the
 // prior takes the gauge's pose prior, the oldest keyframe's own sighting and range, and the link
 // sighting (4 blocks), and after re-anchoring the window builds the new anchor's range against the
