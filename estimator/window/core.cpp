@@ -416,6 +416,13 @@ Trajectory WindowCore::keyframes() const {
   return ontoGyroClock(frames_.keyframes([this](int id) { return keyframeState(id); }));
 }
 
+std::vector<std::pair<Timestamp, Vec3>> WindowCore::biasHistory() const {
+  auto bias = frames_.biasHistory();
+  const Timestamp shift = gyroShift();  // (as ontoGyroClock)
+  for (auto& [t_ns, b] : bias) t_ns -= shift;
+  return bias;
+}
+
 void WindowCore::countLidar(const Keyframe& kf, EstimatorStats& stats) const {
   stats.lidar_keyframes += kf.lidar.empty() ? 0 : 1;
   stats.lidar_ranges += static_cast<int>(kf.lidar.size());

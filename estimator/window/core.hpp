@@ -83,7 +83,8 @@ class WindowCore {
   Trajectory trajectory() const;
   Trajectory keyframes() const;
   EstimatorStats stats() const;
-  std::vector<std::pair<Timestamp, Vec3>> biasHistory() const { return frames_.biasHistory(); }
+  /// The gyro bias over time, on the gyro's clock as trajectory() and keyframes() are.
+  std::vector<std::pair<Timestamp, Vec3>> biasHistory() const;
 
   bool initialized() const { return initialized_; }
   const FrameLog& frameLog() const { return frames_; }

@@ -72,7 +72,16 @@ void WindowCore::carryGyroRotation(const Keyframe& kf, FrameEstimate& e) {
   if (!options_.frame_rotation_from_gyro) return;
   const auto pi = preintegrate(kf.t_ns, e.t_ns, kf.bias());
   if (!pi || pi->status() != factors::GyroPreintegration::Status::kOk) return;
-  frame_gyro_ = GyroSpan{pi->deltaR(), pi->biasJacobian(), pi->biasLinearization()};
+  // The rates at the span's two ends (bias removed), over the last 10 ms before each.
+  const auto rateAt = [&](Timestamp t) -> Vec3 {
+    constexpr Timestamp kSpan = 10'000'000;
+    const auto r = preintegrate(t - kSpan, t, kf.bias());
+    return r && r->status() != factors::GyroPreintegration::Status::kNoData
+               ? Vec3(so3::log(r->deltaR()) / toSeconds(kSpan))
+               : Vec3::Zero();
+  };
+  frame_gyro_ = GyroSpan{pi->deltaR(),          pi->biasJacobian(), pi->biasLinearization(),
+                         toSeconds(gyroShift()), rateAt(kf.t_ns),   rateAt(e.t_ns)};
   e.T_W_B.linear() = so3::orthonormalize(kf.bodyPose().linear() * pi->deltaR());
 }
 

@@ -92,6 +92,7 @@ void WindowCore::solveWindow() {
           "counts them); the first said: {}",
           s.message.empty() ? "a state came out non-finite" : s.message));
   }
+  frames_.setTimeShift(toSeconds(gyroShift()));
   last_solve_.residual_blocks = s.residual_blocks;
   last_solve_.iterations = s.iterations;
   removeOutliers(map_, model_, options_);

@@ -26,6 +26,12 @@ Mat3 GyroSpan::at(const Vec3& bias_radps) const {
   return dR * so3::exp(J_bias * (bias_radps - bias_lin_radps));
 }
 
+Mat3 GyroSpan::at(const Vec3& bias_radps, double shift_s_now) const {
+  const double d = shift_s_now - shift_s;
+  if (d == 0.0) return at(bias_radps);
+  return so3::exp(rate_start_radps * d) * at(bias_radps) * so3::exp(-rate_end_radps * d);
+}
+
 std::optional<KeyframeState> FrameLog::keptState(int kf_id) const {
   auto it = kf_states_.find(kf_id);
   if (it == kf_states_.end()) return std::nullopt;
@@ -41,8 +47,14 @@ SE3 FrameLog::finalPose(const FrameRecord& r, const KeyframeLookup& keyframe_sta
   SE3 T = r.T_W_B;
   if (r.ref_kf >= 0) {
     if (const auto kf = keyframe_state(r.ref_kf)) {
-      T = kf->body * r.T_kf_B;
-      if (r.gyro) T.linear() = so3::orthonormalize(kf->body.linear() * r.gyro->at(kf->bias_radps));
+      // The offset was measured against the keyframe's vision pose (recordFrame): the position
+      // follows from that pose, the orientation from the body's (the output's) times the offset's
+      // rotation, or the gyro's. (The body's pose times the whole offset would turn the offset by
+      // the vision/gyro-chain disagreement.)
+      T.translation() = kf->vision * r.T_kf_B.translation();
+      T.linear() = r.gyro ? so3::orthonormalize(kf->body.linear() *
+                                                r.gyro->at(kf->bias_radps, shift_s_))
+                          : Mat3(kf->body.linear() * r.T_kf_B.linear());
     }
   }
   return allFinite(T) ? T : r.T_W_B;

@@ -18,13 +18,20 @@
 
 namespace ovo::estimator {
 
-/// The gyro's rotation from a keyframe to a frame, with what re-evaluates it at a later bias:
-/// dR(b) = dR Exp(J_b (b - b_lin)) (factors::GyroPreintegration's first-order correction).
+/// The gyro's rotation from a keyframe to a frame, with what re-evaluates it at a later bias and
+/// a later camera-gyro time offset: dR(b) = dR Exp(J_b (b - b_lin))
+/// (factors::GyroPreintegration's first-order correction), and, the span [t0 - s, t1 - s] of the
+/// gyro clock moved by a change d of the offset s, Exp(w0 d) dR(b) Exp(-w1 d) with the rates w0,
+/// w1 at its ends (exact for a rate that changes linearly about one axis).
 struct GyroSpan {
   Mat3 dR = Mat3::Identity();
   Mat3 J_bias = Mat3::Zero();  // s
   Vec3 bias_lin_radps = Vec3::Zero();
+  double shift_s = 0.0;                 // the offset it was integrated with
+  Vec3 rate_start_radps = Vec3::Zero();  // bias-corrected rates at its two ends
+  Vec3 rate_end_radps = Vec3::Zero();
   Mat3 at(const Vec3& bias_radps) const;
+  Mat3 at(const Vec3& bias_radps, double shift_s_now) const;
 };
 
 /// One frame as the window placed it.
@@ -79,6 +86,8 @@ class FrameLog {
   /// and `before_ns`, and the biases before it.
   void settle(Timestamp before_ns, const KeyframeLookup& keyframe_state);
 
+  /// The camera-gyro time offset now (s): the frames' gyro spans are re-timed to it (GyroSpan).
+  void setTimeShift(double shift_s) { shift_s_ = shift_s; }
   /// Keeps a keyframe's poses as they are when it leaves the window (or at the end).
   void keepPoses(const Keyframe& kf) { kf_states_[kf.id] = {kf.pose(), kf.bodyPose(), kf.bias()}; }
   std::optional<KeyframeState> keptState(int kf_id) const;
@@ -93,8 +102,9 @@ class FrameLog {
   Vec3 positionAt(Timestamp t_ns, Timestamp t_now_ns, const Vec3& p_now_W,
                   const Vec3& fallback_W) const;
 
-  /// Every frame's body pose: its keyframe's final pose times its offset from it (the rotation by
-  /// the gyro where recorded).
+  /// Every frame's body pose: its position from its keyframe's final vision pose (which the
+  /// offset was measured against) times its offset, its orientation the keyframe's final body
+  /// orientation times the offset's rotation (the gyro's where recorded).
   Trajectory trajectory(const KeyframeLookup& keyframe_pose) const;
   /// Every keyframe's final body pose.
   Trajectory keyframes(const KeyframeLookup& keyframe_pose) const;
@@ -102,6 +112,7 @@ class FrameLog {
  private:
   SE3 finalPose(const FrameRecord& r, const KeyframeLookup& keyframe_state) const;
 
+  double shift_s_ = 0.0;          // setTimeShift
   std::deque<FrameRecord> open_;  // frames not settled, oldest first
   std::size_t settled_count_ = 0;
   std::vector<SettledPose> settled_;  // the settled frames' poses (kept history)

@@ -18,6 +18,8 @@ struct OffsetRun {
   double ate_m = 1.0;
   double td_s = 0.0;
   bool estimated = false;
+  // The gyro bias history is stamped on the trajectory's clock: the same stamps, frame by frame.
+  bool bias_on_the_trajectorys_clock = false;
 };
 
 OffsetRun runWindow(const SimSequence& seq, bool estimate) {
@@ -28,6 +30,10 @@ OffsetRun runWindow(const SimSequence& seq, bool estimate) {
   if (const auto s = scoreRun(seq, run.trajectory)) out.ate_m = s->ate_m;
   out.estimated = run.stats.time_offset_s.has_value();
   out.td_s = run.stats.time_offset_s.value_or(0.0);
+  out.bias_on_the_trajectorys_clock = !run.bias_history.empty() &&
+                                      run.bias_history.size() == run.trajectory.size();
+  for (std::size_t k = 0; out.bias_on_the_trajectorys_clock && k < run.trajectory.size(); ++k)
+    out.bias_on_the_trajectorys_clock = run.bias_history[k].first == run.trajectory[k].t_ns;
   return out;
 }
 
@@ -42,6 +48,7 @@ TEST(WindowTimeOffset, IsEstimatedOnlineAndTheTrajectoryComesOutOnTheGyroClock) 
     ASSERT_TRUE(on.estimated);
     EXPECT_FALSE(off.estimated);
     EXPECT_NEAR(on.td_s, offset_s, 0.003);
+    EXPECT_TRUE(on.bias_on_the_trajectorys_clock);
     // Ignoring the offset costs the window (the gyro's rotation over the wrong interval, and the
     // poses stamped at the wrong times); the estimate buys that back.
     EXPECT_LT(on.ate_m, 0.6 * off.ate_m);
