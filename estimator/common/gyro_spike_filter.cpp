@@ -10,17 +10,28 @@ bool GyroSpikeFilter::accept(const ImuSample& s) {
     ++rejected_;
     return false;
   }
-  if (max_jump_radps_ <= 0.0 || !have_last_) {
+  if (max_jump_radps_ <= 0.0) return true;
+  if (!have_last_) {
+    // A robot starts from rest: the first sample is judged against a zero rate, so that a spike
+    // at start-up is not the reference every later sample jumps from.
     have_last_ = true;
-    last_ = s;
-    return true;
+    last_.t_ns = s.t_ns;
+    last_.gyro_radps.setZero();
   }
-  const double jump = (s.gyro_radps - last_.gyro_radps).cwiseAbs().maxCoeff();
-  if (jump > max_jump_radps_) {
-    if (rejecting_since_ < 0) rejecting_since_ = s.t_ns;
-    if (s.t_ns - rejecting_since_ <= max_reject_ns_) {
-      ++rejected_;
-      return false;
+  const auto jump = [&](const Vec3& from) { return (s.gyro_radps - from).cwiseAbs().maxCoeff(); };
+  if (jump(last_.gyro_radps) > max_jump_radps_) {
+    if (after_lasting_jump_ && jump(before_jump_radps_) <= max_jump_radps_) {
+      // The end of a jump that lasted (e.g. a saturation longer than max_reject_s): back to the
+      // rate before it, which is no spike.
+      after_lasting_jump_ = false;
+    } else {
+      if (rejecting_since_ < 0) rejecting_since_ = s.t_ns;
+      if (s.t_ns - rejecting_since_ <= max_reject_ns_) {
+        ++rejected_;
+        return false;
+      }
+      after_lasting_jump_ = true;  // taken as real: remember where it came from
+      before_jump_radps_ = last_.gyro_radps;
     }
   }
   rejecting_since_ = -1;

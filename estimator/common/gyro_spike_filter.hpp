@@ -1,7 +1,8 @@
 // The gyro's spikes: samples whose rate jumps from the last accepted one by more than a ground
 // robot can turn in one sample period (a clipped or corrupted reading, e.g. a few samples at the
 // sensor's full scale). They are rejected for a short while; a jump that persists is accepted as
-// real motion.
+// real motion, and so is the return from it to the rate before. The robot is taken to start from
+// rest (the first sample is judged against a zero rate).
 #pragma once
 
 #include "common/types.hpp"
@@ -25,6 +26,8 @@ class GyroSpikeFilter {
   bool have_last_ = false;
   ImuSample last_;
   Timestamp rejecting_since_ = -1;  // first rejected sample of the current run (-1: none)
+  bool after_lasting_jump_ = false;  // a jump lasted max_reject_s and was taken as real ...
+  Vec3 before_jump_radps_ = Vec3::Zero();  // ... from this rate: a return to it is accepted
   int rejected_ = 0;
 };
 

@@ -33,6 +33,30 @@ TEST(GyroSpikeFilter, AJumpThatLastsIsTakenAsRealAfterTheSpikeTime) {
   EXPECT_EQ(rejected, 11);
 }
 
+TEST(GyroSpikeFilter, ASpikeAtStartUpIsLeftOutAndTheRatesAfterItKept) {
+  // Before, the first sample was the reference whatever it was: the spike was kept and the next
+  // 50 ms of true rates left out as jumps from it.
+  GyroSpikeFilter f(10.0, 0.05);
+  EXPECT_FALSE(f.accept(sample(0, 34.9)));
+  for (int k = 1; k < 20; ++k) EXPECT_TRUE(f.accept(sample(k, 0.3))) << k;
+  EXPECT_EQ(f.rejected(), 1);
+}
+
+TEST(GyroSpikeFilter, ASaturationLongerThanTheSpikeTimeIsKeptAndSoIsTheReturnFromIt) {
+  // 150 ms at full scale (a knock): the first 50 ms are left out, the rest is taken as real, and
+  // the return to the rate before it is kept at once (before, it was a jump and left out for
+  // another 50 ms).
+  GyroSpikeFilter f(10.0, 0.05);
+  for (int k = 0; k < 10; ++k) EXPECT_TRUE(f.accept(sample(k, 0.3)));
+  int rejected = 0;
+  for (int k = 10; k < 40; ++k) rejected += !f.accept(sample(k, 34.9));
+  EXPECT_EQ(rejected, 11);
+  for (int k = 40; k < 60; ++k) EXPECT_TRUE(f.accept(sample(k, 0.3))) << k;
+  // A spike after that is a spike again.
+  EXPECT_FALSE(f.accept(sample(60, 34.9)));
+  EXPECT_TRUE(f.accept(sample(61, 0.3)));
+}
+
 TEST(GyroSpikeFilter, FastSmoothTurnsAndNoFilterKeepEverySample) {
   GyroSpikeFilter f(10.0, 0.05);
   for (int k = 0; k < 400; ++k)  // up to 6 rad/s and back, 2 s
