@@ -83,6 +83,10 @@ class WindowCore {
   Trajectory trajectory() const;
   Trajectory keyframes() const;
   EstimatorStats stats() const;
+  /// The covariance of the newest keyframe's pose (poseCovariance: rotation vector in the world
+  /// frame, then position) from the window as it stands; nullopt before a window or when it
+  /// cannot be computed.
+  std::optional<Eigen::Matrix<double, 6, 6>> newestPoseCovariance();
   /// The gyro bias over time, on the gyro's clock as trajectory() and keyframes() are.
   std::vector<std::pair<Timestamp, Vec3>> biasHistory() const;
 

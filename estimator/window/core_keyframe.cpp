@@ -13,6 +13,7 @@
 #include "common/so3.hpp"
 #include "estimator/common/lidar_deskew.hpp"
 #include "estimator/window/core.hpp"
+#include "estimator/window/covariance.hpp"
 #include "estimator/window/keyframe_policy.hpp"
 #include "estimator/window/landmarks.hpp"
 #include "estimator/window/refine.hpp"
@@ -99,6 +100,14 @@ void WindowCore::solveWindow() {
   labelGround();
   repropagateGyro(kfs);
   last_solve_.solve_ms = msSince(t0);
+}
+
+std::optional<Eigen::Matrix<double, 6, 6>> WindowCore::newestPoseCovariance() {
+  if (!initialized_ || map_.empty()) return std::nullopt;
+  auto kfs = windowKeyframes();
+  auto factors = buildFactors(kfs, map_.landmarks, model_, gauge_, &ledger_, map_.time_offset_s,
+                              map_.camera_height_offset_m);
+  return poseCovariance(std::move(factors), kfs, model_, *kfs.back());
 }
 
 void WindowCore::labelGround() {
