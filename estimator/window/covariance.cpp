@@ -6,7 +6,7 @@
 #include <unordered_set>
 #include <utility>
 
-#include "factors/parameterization.hpp"
+#include "estimator/window/solve.hpp"
 
 namespace ovo::estimator {
 
@@ -18,14 +18,7 @@ std::optional<Mat6> poseCovariance(std::vector<FactorSpec> factors,
   for (const FactorSpec& f : factors) used.insert(f.blocks.begin(), f.blocks.end());
   if (!used.count(q) || !used.count(kf.p_W_B)) return std::nullopt;
   ceres::Problem problem;
-  for (Keyframe* k : keyframes) {
-    if (used.count(k->q_W_B))
-      problem.AddParameterBlock(k->q_W_B, 4, factors::newQuaternionManifold());
-    if (tiedRotations(model) && used.count(k->q_W_G))
-      problem.AddParameterBlock(k->q_W_G, 4, factors::newQuaternionManifold());
-  }
-  for (FactorSpec& f : factors)
-    problem.AddResidualBlock(f.cost.release(), f.loss.release(), f.blocks);
+  addFactorsToProblem(factors, keyframes, model, used, problem);
 
   ceres::Covariance::Options options;
   options.algorithm_type = ceres::DENSE_SVD;

@@ -14,6 +14,19 @@
 
 namespace ovo::estimator {
 
+void addFactorsToProblem(std::vector<FactorSpec>& factors, const std::vector<Keyframe*>& keyframes,
+                         const WindowModel& model, const std::unordered_set<const double*>& used,
+                         ceres::Problem& problem) {
+  for (Keyframe* kf : keyframes) {
+    if (used.count(kf->q_W_B))
+      problem.AddParameterBlock(kf->q_W_B, 4, factors::newQuaternionManifold());
+    if (tiedRotations(model) && used.count(kf->q_W_G))
+      problem.AddParameterBlock(kf->q_W_G, 4, factors::newQuaternionManifold());
+  }
+  for (FactorSpec& f : factors)
+    problem.AddResidualBlock(f.cost.release(), f.loss.release(), f.blocks);
+}
+
 SolveSummary solveFactors(std::vector<FactorSpec> factors, const std::vector<Keyframe*>& keyframes,
                           std::unordered_map<TrackId, Landmark>& landmarks,
                           const WindowModel& model, const SolveOptions& options) {
@@ -39,22 +52,11 @@ SolveSummary solveFactors(std::vector<FactorSpec> factors, const std::vector<Key
   for (std::size_t i = 0; i < scalars.size(); ++i)
     if (scalars[i].block) scalar_backup[i] = scalars[i].block[0];
 
-  // The blocks the factors use: a keyframe's orientation gets its manifold only when a factor
-  // holds it (one without any, e.g. no landmark yet, is left out rather than left floating; asking
-  // Ceres afterwards scans every residual block per keyframe).
   std::unordered_set<const double*> used;
   for (const FactorSpec& f : factors) used.insert(f.blocks.begin(), f.blocks.end());
   ceres::Problem problem;
-  for (Keyframe* kf : keyframes) {
-    if (used.count(kf->q_W_B))
-      problem.AddParameterBlock(kf->q_W_B, 4, factors::newQuaternionManifold());
-    if (tiedRotations(model) && used.count(kf->q_W_G))
-      problem.AddParameterBlock(kf->q_W_G, 4, factors::newQuaternionManifold());
-  }
-  for (FactorSpec& f : factors) {
-    problem.AddResidualBlock(f.cost.release(), f.loss.release(), f.blocks);
-    ++summary.residual_blocks;
-  }
+  summary.residual_blocks = static_cast<int>(factors.size());
+  addFactorsToProblem(factors, keyframes, model, used, problem);
   for (auto& [id, lm] : landmarks) {
     if (!used.count(lm.rho)) continue;
     problem.SetParameterLowerBound(lm.rho, 0, model.min_rho);

@@ -4,7 +4,10 @@
 
 #include <string>
 #include <unordered_map>
+#include <unordered_set>
 #include <vector>
+
+#include <ceres/problem.h>
 
 #include "estimator/window/factors.hpp"
 #include "estimator/window/options.hpp"
@@ -37,6 +40,14 @@ struct SolveSummary {
   double initial_cost = 0.0, final_cost = 0.0;
   std::string message;
 };
+
+/// A Ceres problem holding the factors (their cost and loss handed over): the keyframes'
+/// orientations that a factor holds on the quaternion manifold (one without any, e.g. no landmark
+/// yet, is left out rather than left floating; asking Ceres afterwards scans every residual block
+/// per keyframe), then the residual blocks. `used`: every block the factors hold.
+void addFactorsToProblem(std::vector<FactorSpec>& factors, const std::vector<Keyframe*>& keyframes,
+                         const WindowModel& model, const std::unordered_set<const double*>& used,
+                         ceres::Problem& problem);
 
 /// Solves the window in place. On failure (non-finite states) the states are restored.
 SolveSummary solveFactors(std::vector<FactorSpec> factors, const std::vector<Keyframe*>& keyframes,
