@@ -19,11 +19,16 @@ bool GyroSpikeFilter::accept(const ImuSample& s) {
     last_.gyro_radps.setZero();
   }
   const auto jump = [&](const Vec3& from) { return (s.gyro_radps - from).cwiseAbs().maxCoeff(); };
+  // A return is remembered for max_reject_s: a return that was itself one bad sample (a dropout
+  // to zero in a fast turn) is followed at once by a return to the level it left.
+  if (after_lasting_jump_ && returned_at_ns_ >= 0 && s.t_ns - returned_at_ns_ > max_reject_ns_)
+    after_lasting_jump_ = false;
   if (jump(last_.gyro_radps) > max_jump_radps_) {
     if (after_lasting_jump_ && jump(before_jump_radps_) <= max_jump_radps_) {
       // The end of a jump that lasted (e.g. a saturation longer than max_reject_s): back to the
       // rate before it, which is no spike.
-      after_lasting_jump_ = false;
+      before_jump_radps_ = last_.gyro_radps;
+      returned_at_ns_ = s.t_ns;
     } else {
       if (rejecting_since_ < 0) rejecting_since_ = s.t_ns;
       if (s.t_ns - rejecting_since_ <= max_reject_ns_) {
@@ -32,6 +37,7 @@ bool GyroSpikeFilter::accept(const ImuSample& s) {
       }
       after_lasting_jump_ = true;  // taken as real: remember where it came from
       before_jump_radps_ = last_.gyro_radps;
+      returned_at_ns_ = -1;
     }
   }
   rejecting_since_ = -1;

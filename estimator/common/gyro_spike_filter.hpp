@@ -28,6 +28,7 @@ class GyroSpikeFilter {
   Timestamp rejecting_since_ = -1;  // first rejected sample of the current run (-1: none)
   bool after_lasting_jump_ = false;  // a jump lasted max_reject_s and was taken as real ...
   Vec3 before_jump_radps_ = Vec3::Zero();  // ... from this rate: a return to it is accepted
+  Timestamp returned_at_ns_ = -1;  // the last return (-1: none); remembered for max_reject_s
   int rejected_ = 0;
 };
 

@@ -2,6 +2,7 @@
 #include "estimator/window/estimator.hpp"
 
 #include <chrono>
+#include <utility>
 
 #include "estimator/common/gyro_front.hpp"
 #include "estimator/window/core.hpp"
@@ -57,7 +58,7 @@ class WindowEstimator final : public Estimator {
 
   FrameEstimate update(std::unique_ptr<FrontendFrame> frame_in) override {
     const auto frame = frontendFrameAs<WindowFrontendFrame>(std::move(frame_in), "window");
-    FrameEstimate e = core_.processFrame(frame->visual);
+    FrameEstimate e = core_.processFrame(std::move(frame->visual));
     frontend_gyro_.publishBias(frame->t_ns, core_.gyroBias());
     e.frontend_ms = frame->frontend_ms;
     e.tracks = std::move(frame->tracks);

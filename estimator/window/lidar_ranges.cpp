@@ -31,7 +31,13 @@ std::vector<BeamInImage> WindowLidar::usableBeams(const FrameScan& scan) const {
 }
 
 std::vector<LidarRange> WindowLidar::rangesAt(const Keyframe& kf, const WindowMap& map,
-                                              double scale) const {
+                                              double scale, const PointsW* points_W) const {
+  const auto pointOf = [&](TrackId id) -> std::optional<Vec3> {
+    if (points_W == nullptr) return map.pointW(id, setup_.T_B_C);
+    const auto it = points_W->find(id);
+    if (it == points_W->end()) return std::nullopt;
+    return it->second;
+  };
   std::vector<LidarRange> out;
   const SE3 T_L_W = (kf.pose() * kf.T_B_L).inverse();
   // At another scale: each point scaled about the keyframe's camera, as a rescale by `scale`
@@ -57,7 +63,7 @@ std::vector<LidarRange> WindowLidar::rangesAt(const Keyframe& kf, const WindowMa
     const Vec3 up_C = bodyUpIn(setup_.T_B_C);
     const Vec3 up_L = bodyUpIn(kf.T_B_L);
     for (const auto& [id, o] : kf.observations) {
-      const auto p_W = map.pointW(id, setup_.T_B_C);
+      const auto p_W = pointOf(id);
       if (!p_W) continue;
       const Vec3 p_L = inLidar(*p_W);
       const double d_xy = p_L.head<2>().norm();
@@ -83,7 +89,7 @@ std::vector<LidarRange> WindowLidar::rangesAt(const Keyframe& kf, const WindowMa
     return out;
   }
   for (const LidarAssociation& c : kf.lidar_candidates) {
-    const auto p_W = map.pointW(c.track_id, setup_.T_B_C);
+    const auto p_W = pointOf(c.track_id);
     if (!p_W) continue;
     out.push_back({c, inLidar(*p_W).norm(), c.range_m, false});
   }
@@ -104,12 +110,13 @@ void WindowLidar::associate(Keyframe& kf, const WindowMap& map, bool gate_depth)
 }
 
 std::vector<std::pair<double, TrackId>> WindowLidar::rangeRatios(const WindowMap& map,
-                                                                 double scale) const {
+                                                                 double scale,
+                                                                 const PointsW* points_W) const {
   // Ground beams are left out (their range hangs on the plane's elevation, not on the scale
   // alone).
   std::vector<std::pair<double, TrackId>> ratios;
   for (const auto& kf : map.keyframes)
-    for (const LidarRange& r : rangesAt(*kf, map, scale))
+    for (const LidarRange& r : rangesAt(*kf, map, scale, points_W))
       if (!r.ground && r.measured_m > 0.0)
         ratios.emplace_back(r.landmark_m / r.measured_m, r.association.track_id);
   return ratios;
@@ -160,6 +167,10 @@ std::optional<double> WindowLidar::scaleRatio(const WindowMap& map) const {
     return tracks.size() < 3 ? 0 : n;
   };
   const int at_one = support(ratios);
+  // The landmarks' points once for every trial scale (each trial only scales them).
+  PointsW points_W;
+  for (const auto& [id, lm] : map.landmarks)
+    if (const auto p = map.pointW(lm, setup_.T_B_C)) points_W.emplace(id, *p);
   constexpr double kStep = 0.04;  // log-scale step, below the half-agreement band
   constexpr int kSteps = 35;      // scales from 0.25 to 4
   int best = 0;
@@ -167,12 +178,12 @@ std::optional<double> WindowLidar::scaleRatio(const WindowMap& map) const {
   for (int k = -kSteps; k <= kSteps; ++k) {
     const double s = std::exp(kStep * k);
     if (std::abs(s - 1.0) <= options_.lidar_rescale_ratio) continue;
-    const int n = support(rangeRatios(map, s));
+    const int n = support(rangeRatios(map, s, &points_W));
     if (n > best) best = n, best_scale = s;
   }
   if (best < options_.lidar_rescale_min_ranges || best < 2 * at_one) return std::nullopt;
   // At that scale the ranges must pass the test the window's own scale failed.
-  const auto agreed = agreedRatio(rangeRatios(map, best_scale));
+  const auto agreed = agreedRatio(rangeRatios(map, best_scale, &points_W));
   if (!agreed || std::abs(*agreed - 1.0) > half) return std::nullopt;
   // In the window's units: a landmark's distance there is its distance at best_scale over it.
   return *agreed / best_scale;

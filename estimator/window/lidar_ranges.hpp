@@ -5,6 +5,7 @@
 #pragma once
 
 #include <optional>
+#include <unordered_map>
 #include <utility>
 #include <vector>
 
@@ -38,8 +39,10 @@ class WindowLidar {
   /// Every range the keyframe's scan measures to a landmark the window has for a track it sees;
   /// with scale != 1, as if the window were scaled by it (each point scaled about the keyframe's
   /// camera, LidarRange::landmark_m at that scale).
-  std::vector<LidarRange> rangesAt(const Keyframe& kf, const WindowMap& map,
-                                   double scale = 1.0) const;
+  /// points_W: the landmarks' world points (WindowMap::pointW) when known already.
+  using PointsW = std::unordered_map<TrackId, Vec3>;
+  std::vector<LidarRange> rangesAt(const Keyframe& kf, const WindowMap& map, double scale = 1.0,
+                                   const PointsW* points_W = nullptr) const;
   /// Pairs the keyframe's landmarks with its scan's ranges (gate_depth: only those within
   /// lidar_depth_gate of the landmark's distance), except those paired or rejected before.
   void associate(Keyframe& kf, const WindowMap& map, bool gate_depth) const;
@@ -52,7 +55,8 @@ class WindowLidar {
 
  private:
   /// The window's non-ground ranges' landmark distance over range, with their tracks, at scale.
-  std::vector<std::pair<double, TrackId>> rangeRatios(const WindowMap& map, double scale) const;
+  std::vector<std::pair<double, TrackId>> rangeRatios(const WindowMap& map, double scale,
+                                                      const PointsW* points_W = nullptr) const;
   /// The median of the ratios when at least lidar_rescale_min_ranges of them, half of them and
   /// three landmarks agree with it within lidar_rescale_agreement.
   std::optional<double> agreedRatio(const std::vector<std::pair<double, TrackId>>& ratios) const;

@@ -57,6 +57,16 @@ TEST(GyroSpikeFilter, ASaturationLongerThanTheSpikeTimeIsKeptAndSoIsTheReturnFro
   EXPECT_TRUE(f.accept(sample(61, 0.3)));
 }
 
+TEST(GyroSpikeFilter, ADropoutInALastingFastTurnDoesNotCostTheTurnAfterIt) {
+  // A pivot at 12 rad/s taken as real after 50 ms; then one sample reads 0 (a dropout): it passes
+  // as the return to the rate before the pivot, and the pivot's rate after it is a return too.
+  GyroSpikeFilter f(10.0, 0.05);
+  EXPECT_TRUE(f.accept(sample(0, 0.0)));
+  for (int k = 1; k < 40; ++k) f.accept(sample(k, 12.0));
+  EXPECT_TRUE(f.accept(sample(40, 0.0)));
+  for (int k = 41; k < 50; ++k) EXPECT_TRUE(f.accept(sample(k, 12.0))) << k;
+}
+
 TEST(GyroSpikeFilter, FastSmoothTurnsAndNoFilterKeepEverySample) {
   GyroSpikeFilter f(10.0, 0.05);
   for (int k = 0; k < 400; ++k)  // up to 6 rad/s and back, 2 s

@@ -112,7 +112,9 @@ TEST(MarginalizeOldest, ALandmarkNotSelectedIsDropped) {
 
 // A landmark that ends with the oldest keyframe without going into the prior takes all its
 // measurements with it, also those on its inverse depth alone (the anchor's own LiDAR range, its
-// camera-height factor): the ledger says they were dropped. They used to have no entry.
+// camera-height factor): the ledger says they were dropped. They used to have no entry. (The
+// window forgets the oldest keyframe's entries right after, as no factor can be built for them
+// again: the solution is the same either way; the ledger's account is what this checks.)
 TEST(MarginalizeOldest, ADroppedLandmarksFactorsOnItsDepthAloneAreRecordedAsDropped) {
   WindowMap map = threeKeyframesOneLandmark();
   Keyframe& anchor = *map.keyframes.front();
