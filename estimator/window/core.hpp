@@ -254,6 +254,10 @@ class WindowCore {
   // next segment starts from it instead of the loose first-start prior.
   std::optional<std::pair<Timestamp, Vec3>> carried_bias_;
   bool lidar_scale_ = false;  // the current segment's scale came from the LiDAR
+  // A scale found by the search (WindowLidar::scaleRatio) waits for the next keyframe's search to
+  // find it again before the window is rescaled to it: one keyframe's chance agreement (rows of
+  // vines repeat) must not rescale a window whose ranges merely disagree.
+  std::optional<double> searched_ratio_;
   bool scale_known_ = true;   // false: the segment started at a unit baseline (rescaleToGround)
   std::vector<double> ground_heights_;  // the last labelGround's plane heights (rescaleToGround)
 

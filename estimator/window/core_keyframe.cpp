@@ -29,8 +29,15 @@ void WindowCore::associateLidar() {
 
 bool WindowCore::rescaleToLidar() {
   if (!use_lidar_ || options_.lidar_rescale_ratio <= 0.0 || map_.keyframes.size() < 2) return false;
-  const auto ratio = lidar_.scaleRatio(map_);
+  bool searched = false;
+  const auto ratio = lidar_.scaleRatio(map_, &searched);
+  const auto previous = std::exchange(searched_ratio_, std::nullopt);
   if (!ratio || !(*ratio > 0.0)) return false;
+  if (searched && !(previous && std::abs(*ratio / *previous - 1.0) <=
+                                    options_.lidar_rescale_agreement)) {
+    searched_ratio_ = ratio;  // found once: again at the next keyframe before it counts
+    return false;
+  }
   if (std::abs(*ratio - 1.0) <= options_.lidar_rescale_ratio) {
     scale_known_ = true;  // the LiDAR agrees with the window's scale
     return false;

@@ -143,7 +143,8 @@ std::optional<double> WindowLidar::agreedRatio(
   return upperMedian(agree);
 }
 
-std::optional<double> WindowLidar::scaleRatio(const WindowMap& map) const {
+std::optional<double> WindowLidar::scaleRatio(const WindowMap& map, bool* searched) const {
+  if (searched) *searched = false;
   // Every range the window's keyframes measure to a landmark they see, gated or rejected or not:
   // the gates are what a wrong scale defeats.
   const auto ratios = rangeRatios(map, 1.0);
@@ -186,6 +187,7 @@ std::optional<double> WindowLidar::scaleRatio(const WindowMap& map) const {
   const auto agreed = agreedRatio(rangeRatios(map, best_scale, &points_W));
   if (!agreed || std::abs(*agreed - 1.0) > half) return std::nullopt;
   // In the window's units: a landmark's distance there is its distance at best_scale over it.
+  if (searched) *searched = true;
   return *agreed / best_scale;
 }
 

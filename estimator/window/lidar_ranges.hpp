@@ -51,7 +51,9 @@ class WindowLidar {
   /// ratio of the scale between 0.25 and 4 at which the scan agrees with the map when it agrees
   /// there clearly better than at the window's own (a wrong scale makes the ranges disagree
   /// among themselves, not agree on another ratio); nullopt otherwise.
-  std::optional<double> scaleRatio(const WindowMap& map) const;
+  /// searched (optional): set to whether the ratio came from the search rather than from ranges
+  /// that agree at the window's own scale.
+  std::optional<double> scaleRatio(const WindowMap& map, bool* searched = nullptr) const;
 
  private:
   /// The window's non-ground ranges' landmark distance over range, with their tracks, at scale.
