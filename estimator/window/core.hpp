@@ -190,6 +190,8 @@ class WindowCore {
   /// the gyro's rate just before it (the samples of the readout itself may not have come yet;
   /// bias removed) and the frames' velocity. Zero with a global shutter.
   Readout readoutAt(Timestamp t_ns, const SE3& T_W_B, const Vec3& bias) const;
+  /// The gyro's mean rate (bias removed) over the `span` before t_ns; zero without samples.
+  Vec3 gyroRateBefore(Timestamp t_ns, Timestamp span, const Vec3& bias) const;
   /// The standstill test of the frame with its tracks `obs` and the prediction's gyro rate.
   bool still(const VisualFrame& frame, const std::unordered_map<TrackId, TrackObservation>& obs,
              const Prediction& pred) const;

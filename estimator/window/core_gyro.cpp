@@ -72,16 +72,14 @@ void WindowCore::carryGyroRotation(const Keyframe& kf, FrameEstimate& e) {
   if (!options_.frame_rotation_from_gyro) return;
   const auto pi = preintegrate(kf.t_ns, e.t_ns, kf.bias());
   if (!pi || pi->status() != factors::GyroPreintegration::Status::kOk) return;
-  // The rates at the span's two ends (bias removed), over the last 10 ms before each.
-  const auto rateAt = [&](Timestamp t) -> Vec3 {
-    constexpr Timestamp kSpan = 10'000'000;
-    const auto r = preintegrate(t - kSpan, t, kf.bias());
-    return r && r->status() != factors::GyroPreintegration::Status::kNoData
-               ? Vec3(so3::log(r->deltaR()) / toSeconds(kSpan))
-               : Vec3::Zero();
-  };
-  frame_gyro_ = GyroSpan{pi->deltaR(),          pi->biasJacobian(), pi->biasLinearization(),
-                         toSeconds(gyroShift()), rateAt(kf.t_ns),   rateAt(e.t_ns)};
+  // The rates at the span's two ends, over the last 10 ms before each.
+  constexpr Timestamp kSpan = 10'000'000;
+  frame_gyro_ = GyroSpan{pi->deltaR(),
+                         pi->biasJacobian(),
+                         pi->biasLinearization(),
+                         toSeconds(gyroShift()),
+                         gyroRateBefore(kf.t_ns, kSpan, kf.bias()),
+                         gyroRateBefore(e.t_ns, kSpan, kf.bias())};
   e.T_W_B.linear() = so3::orthonormalize(kf.bodyPose().linear() * pi->deltaR());
 }
 
@@ -136,13 +134,16 @@ void WindowCore::refreshGyroFactors() {
   }
 }
 
+Vec3 WindowCore::gyroRateBefore(Timestamp t_ns, Timestamp span, const Vec3& bias) const {
+  const auto pi = preintegrate(t_ns - span, t_ns, bias);
+  if (!pi || pi->status() == factors::GyroPreintegration::Status::kNoData) return Vec3::Zero();
+  return so3::log(pi->deltaR()) / toSeconds(span);
+}
+
 Readout WindowCore::readoutAt(Timestamp t_ns, const SE3& T_W_B, const Vec3& bias) const {
   Readout r;
   if (!(model_.rolling_shutter_s > 0.0)) return r;
-  const Timestamp span = fromSeconds(std::max(model_.rolling_shutter_s, 0.02));
-  if (const auto pi = preintegrate(t_ns - span, t_ns, bias);
-      pi && pi->status() != factors::GyroPreintegration::Status::kNoData)
-    r.rate_B = so3::log(pi->deltaR()) / toSeconds(span);
+  r.rate_B = gyroRateBefore(t_ns, fromSeconds(std::max(model_.rolling_shutter_s, 0.02)), bias);
   r.velocity_B = T_W_B.linear().transpose() * velocity_W_;
   return r;
 }

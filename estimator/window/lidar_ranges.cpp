@@ -43,9 +43,10 @@ std::vector<LidarRange> WindowLidar::rangesAt(const Keyframe& kf, const WindowMa
   // At another scale: each point scaled about the keyframe's camera, as a rescale by `scale`
   // would put it as the keyframe sees it.
   const SE3 T_C_W = (kf.pose() * setup_.T_B_C).inverse();
-  const SE3 T_L_C_scaled = cameraFromLidar(setup_.T_B_C, kf.T_B_L).inverse();
+  const SE3 T_C_L = cameraFromLidar(setup_.T_B_C, kf.T_B_L);
+  const SE3 T_L_C = T_C_L.inverse();
   const auto inLidar = [&](const Vec3& p_W) -> Vec3 {
-    return scale == 1.0 ? Vec3(T_L_W * p_W) : Vec3(T_L_C_scaled * (scale * (T_C_W * p_W)));
+    return scale == 1.0 ? Vec3(T_L_W * p_W) : Vec3(T_L_C * (scale * (T_C_W * p_W)));
   };
   if (options_.lidar_interpolate) {
     // Every landmark the keyframe sees whose point lies within a small elevation of the scan
@@ -58,8 +59,6 @@ std::vector<LidarRange> WindowLidar::rangesAt(const Keyframe& kf, const WindowMa
             ? *setup_.camera_height_m
             : 0.0;
     const bool skip_ground = options_.lidar_ground_beams == GroundBeams::kSkip;
-    const SE3 T_C_L = cameraFromLidar(setup_.T_B_C, kf.T_B_L);
-    const SE3 T_L_C = T_C_L.inverse();
     const Vec3 up_C = bodyUpIn(setup_.T_B_C);
     const Vec3 up_L = bodyUpIn(kf.T_B_L);
     for (const auto& [id, o] : kf.observations) {

@@ -60,12 +60,18 @@ const Keyframe* WindowMap::find(int kf_id) const {
   return nullptr;
 }
 
-std::optional<Vec3> WindowMap::pointW(const Landmark& lm, const SE3& T_B_C) const {
-  const Keyframe* anchor = find(lm.anchor_kf);
-  if (anchor == nullptr || !(lm.rho[0] > 1e-9)) return std::nullopt;
-  const Vec3 p_W = anchor->pose() * (anchor->cameraAt(lm.anchor_row_s, T_B_C) * (lm.bearing_anchor_C / lm.rho[0]));
+std::optional<Vec3> landmarkPointW(const Keyframe& anchor, const Landmark& lm, const SE3& T_B_C) {
+  if (!(lm.rho[0] > 1e-9)) return std::nullopt;
+  const Vec3 p_W =
+      anchor.pose() * (anchor.cameraAt(lm.anchor_row_s, T_B_C) * (lm.bearing_anchor_C / lm.rho[0]));
   if (!p_W.allFinite()) return std::nullopt;
   return p_W;
+}
+
+std::optional<Vec3> WindowMap::pointW(const Landmark& lm, const SE3& T_B_C) const {
+  const Keyframe* anchor = find(lm.anchor_kf);
+  if (anchor == nullptr) return std::nullopt;
+  return landmarkPointW(*anchor, lm, T_B_C);
 }
 
 std::optional<Vec3> WindowMap::pointW(TrackId id, const SE3& T_B_C) const {

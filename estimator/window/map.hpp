@@ -134,6 +134,10 @@ struct Landmark {
   Vec3 ground_up_C = -Vec3::UnitY();  // ground normal in the anchor camera frame (unit, up)
 };
 
+/// The world point of landmark lm anchored in `anchor` (from its anchor camera at the anchor
+/// sighting's row), or nullopt when rho is not positive or the point is not finite.
+std::optional<Vec3> landmarkPointW(const Keyframe& anchor, const Landmark& lm, const SE3& T_B_C);
+
 /// The window: keyframes oldest first, landmarks by track id, and (for the offline full
 /// refinement) every keyframe that left the window.
 class WindowMap {

@@ -226,11 +226,10 @@ RefineInfo refineKeyframes(const std::vector<Keyframe*>& keyframes,
     for (Keyframe* kf : kfs) {
       info.removed_outliers += std::erase_if(kf->lidar, [&](const LidarAssociation& a) {
         const auto lm = landmarks.find(a.track_id);
-        if (lm == landmarks.end() || !(lm->second.rho[0] > 1e-9)) return true;
-        const Keyframe& anchor = *kf_of.at(lm->second.anchor_kf);
-        const Vec3 p_W = anchor.pose() * (anchorExtrinsics(anchor, lm->second, model) *
-                                          (lm->second.bearing_anchor_C / lm->second.rho[0]));
-        return lidarOutlier(a, p_W, *kf, model, options.lidar_outlier_sigmas,
+        if (lm == landmarks.end()) return true;
+        const auto p_W = landmarkPointW(*kf_of.at(lm->second.anchor_kf), lm->second, model.T_B_C);
+        if (!p_W) return true;
+        return lidarOutlier(a, *p_W, *kf, model, options.lidar_outlier_sigmas,
                             options.lidar_outlier_fraction);
       });
     }
