@@ -1,7 +1,8 @@
 // ovo::Odometry (api/ovo.hpp) over the estimator interface (estimator/estimator.hpp): offline, the
 // measurements go to the estimator in the order the offline runner uses (estimator::
-// feedUntilImage: an image after the gyro up to and including the first sample at or after it,
-// scans up to its time before it); live, through the threaded app::OnlinePipeline.
+// feedUntilImage: an image after the gyro up to and including the first sample at or after the
+// estimator's measurementsUntil(its time), scans up to that time before it); live, through the
+// threaded app::OnlinePipeline.
 #include <cmath>
 #include <deque>
 #include <limits>
@@ -130,9 +131,9 @@ struct Odometry::Impl {
     }
     if (on_pose) on_pose(p);
   }
-  // Offline: processes the waiting items in order up to the first image after `t_gyro` (all
-  // images when nullopt). Scans after the last image wait for the next one; at the end they are
-  // dropped, as the offline runner never feeds them.
+  // Offline: processes the waiting items in order up to the first image whose measurements run
+  // past `t_gyro` (all images when nullopt). Scans after the last image wait for the next one; at
+  // the end they are dropped, as the offline runner never feeds them.
   void drain(std::optional<Timestamp> t_gyro) {
     std::size_t images = 0;
     for (const Item& item : waiting)
@@ -140,7 +141,7 @@ struct Odometry::Impl {
     while (images > 0) {
       const Item& front = waiting.front();
       if (const auto* image = std::get_if<std::pair<Timestamp, cv::Mat>>(&front)) {
-        if (t_gyro && image->first > *t_gyro) return;
+        if (t_gyro && est->measurementsUntil(image->first) > *t_gyro) return;
         --images;
       }
       process(front);
@@ -189,7 +190,8 @@ bool Odometry::addImage(std::int64_t t_ns, const cv::Mat& image) {
   const Timestamp t_gyro_clock = t_ns - m.image_shift_ns;
   if (m.pipeline) return m.pipeline->addImage(t_gyro_clock, grey);
   m.waiting.emplace_back(std::pair<Timestamp, cv::Mat>(t_gyro_clock, std::move(grey)));
-  if (!m.setup.has_gyro || (m.any_gyro && m.last_gyro >= t_gyro_clock)) m.drain(std::nullopt);
+  if (!m.setup.has_gyro || (m.any_gyro && m.last_gyro >= m.est->measurementsUntil(t_gyro_clock)))
+    m.drain(std::nullopt);
   return true;
 }
 
@@ -215,12 +217,12 @@ bool Odometry::addScan(const Scan& scan) {
   LidarScan s = toScan(scan);
   if (m.pipeline) return m.pipeline->addScan(s);
   if (!m.setup.has_lidar) return true;
-  // Before the first waiting image at or after its time, after the gyro that image waits for (as
-  // the offline runner feeds scans).
+  // Before the first waiting image whose measurements reach its time, after the gyro that image
+  // waits for (as the offline runner feeds scans).
   auto it = m.waiting.begin();
   while (it != m.waiting.end()) {
     const auto* image = std::get_if<std::pair<Timestamp, cv::Mat>>(&*it);
-    if (image && image->first >= s.t_ns) break;
+    if (image && m.est->measurementsUntil(image->first) >= s.t_ns) break;
     ++it;
   }
   m.waiting.insert(it, std::move(s));

@@ -53,7 +53,8 @@ void runInSequence(const io::Dataset& data, estimator::Estimator& est, const Pro
     const auto& entry = data.images[i];
     // A skipped image's gyro samples and scans go with the next image.
     if (const auto grey = loadImageOrSkip(data, i, policy, result.skipped)) {
-      estimator::feedUntilImage(entry.t_ns, data.imu, next_imu, data.scans, next_scan, est);
+      estimator::feedUntilImage(est.measurementsUntil(entry.t_ns), data.imu, next_imu, data.scans,
+                                next_scan, est);
       keepFrame(result, est.addImage(entry.t_ns, *grey), *grey, on_frame);
     }
     if (progress) progress(i + 1, total);
@@ -235,8 +236,8 @@ void runPipelined(const io::Dataset& data, estimator::Estimator& est, const Prog
   std::size_t next_imu = 0, next_scan = 0;
   EstimatorStage stage{est};
   while (auto item = queue.pop()) {
-    estimator::feedUntilImage(data.images[item->index].t_ns, data.imu, next_imu, data.scans,
-                              next_scan, stage);
+    estimator::feedUntilImage(est.measurementsUntil(data.images[item->index].t_ns), data.imu,
+                              next_imu, data.scans, next_scan, stage);
     keepFrame(result, est.update(std::move(item->frame)), item->grey, on_frame);
     queue.updateDone();
     if (progress) progress(static_cast<int>(item->index) + 1, total);

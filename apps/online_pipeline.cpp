@@ -187,15 +187,30 @@ void OnlinePipeline::runEstimator() {
       if (error_ || frames_.empty()) return;  // failed, or the frontend is done and all is out
       TrackedFrame tracked = std::move(frames_.front());
       frames_.pop_front();
+      // A camera found to run early was exposed after its stamp: the gyro up to that instant
+      // comes that much later, and the frame waits for it (as the frontend waits for the gyro
+      // at its stamp: gyro_wait_ms more at most). A scan that comes after the frame still goes
+      // to its keyframe (the window attaches late scans).
       const Timestamp t_ns = tracked.frame->t_ns;
+      const Timestamp until = estimator_.measurementsUntil(t_ns);
+      if (until > t_ns) {
+        const double wait_ms = options_.gyro_wait_ms + 1e-6 * static_cast<double>(until - t_ns);
+        const auto deadline =
+            tracked.arrival + std::chrono::duration_cast<Clock::duration>(
+                                  std::chrono::duration<double, std::milli>(wait_ms));
+        wake_.wait_until(lock, deadline, [&] {
+          return error_ || stopping_ || (any_gyro_ && last_gyro_t_ >= until);
+        });
+        if (error_) return;
+      }
       std::vector<ImuSample> gyro;
       while (!gyro_.empty()) {
         gyro.push_back(gyro_.front());
         gyro_.pop_front();
-        if (gyro.back().t_ns >= t_ns) break;
+        if (gyro.back().t_ns >= until) break;
       }
       std::vector<LidarScan> scans;
-      while (!scans_.empty() && scans_.front().t_ns <= t_ns) {
+      while (!scans_.empty() && scans_.front().t_ns <= until) {
         scans.push_back(std::move(scans_.front()));
         scans_.pop_front();
       }

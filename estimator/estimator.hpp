@@ -69,18 +69,20 @@ inline double msSince(std::chrono::steady_clock::time_point t0) {
 }
 
 /// The order measurements reach an estimator (the offline runner, the tests, the replay into the
-/// online pipeline): before the image at t_image, the gyro up to and including the first sample at
-/// or after t_image, and the scans up to t_image. next_imu / next_scan are cursors into imu /
-/// scans; sink is anything with addGyro and addScan (an Estimator, WindowCore, the OnlinePipeline).
+/// online pipeline): before an image, the gyro up to and including the first sample at or after
+/// t_until, and the scans up to t_until, where t_until is the estimator's
+/// measurementsUntil(image time) (the image time itself but for a camera found to run early).
+/// next_imu / next_scan are cursors into imu / scans; sink is anything with addGyro and addScan
+/// (an Estimator, WindowCore, the OnlinePipeline).
 template <typename Sink>
-void feedUntilImage(Timestamp t_image, const std::vector<ImuSample>& imu, std::size_t& next_imu,
+void feedUntilImage(Timestamp t_until, const std::vector<ImuSample>& imu, std::size_t& next_imu,
                     const std::vector<LidarScan>& scans, std::size_t& next_scan, Sink& sink) {
   while (next_imu < imu.size()) {
-    const bool past = imu[next_imu].t_ns >= t_image;
+    const bool past = imu[next_imu].t_ns >= t_until;
     sink.addGyro(imu[next_imu++]);
     if (past) break;
   }
-  while (next_scan < scans.size() && scans[next_scan].t_ns <= t_image)
+  while (next_scan < scans.size() && scans[next_scan].t_ns <= t_until)
     sink.addScan(scans[next_scan++]);
 }
 
@@ -194,6 +196,11 @@ class Estimator {
   }
   /// Estimator stage.
   virtual void addScan(const LidarScan& scan) = 0;
+  /// The gyro-clock time up to which the gyro and the scans should reach the estimator stage
+  /// before the image stamped t_image: t_image, or later when the estimator has found that the
+  /// camera's stamps run early (a negative time offset on top of the rig's): the image was
+  /// exposed after its stamp, and the gyro up to that instant and its scan belong before it.
+  virtual Timestamp measurementsUntil(Timestamp t_image) const { return t_image; }
 
   /// false: trajectory(), keyframes() and biasHistory() hold only the recent past (what the
   /// estimator may still change), so that memory stays flat over hours; for a long online run

@@ -92,11 +92,9 @@ void WindowCore::addScan(const LidarScan& scan) {
   Timestamp keep_from = last_t_ - fromSeconds(5.0);
   if (reference_) keep_from = std::min(keep_from, reference_->t_ns);
   // The scans go onto the images' timeline (their stamps are on the gyro clock, the images' run
-  // ahead by the time offset), with the estimate of the time they arrive: they are used within
-  // a fraction of a second, while the estimate moves by much less.
-  LidarScan moved = deskewed(scan);
-  moved.t_ns += gyroShift();
-  scans_.add(moved, keep_from);
+  // ahead by the time offset) by the newest estimate of the offset (solveWindow moves them on).
+  scans_.setShift(gyroShift());
+  scans_.add(deskewed(scan), keep_from);
 }
 
 LidarScan WindowCore::deskewed(const LidarScan& scan) const {

@@ -66,6 +66,10 @@ class WindowCore {
 
   void addGyro(const ImuSample& sample);
   void addScan(const LidarScan& scan);
+  /// Estimator::measurementsUntil: with the camera found early by more than the scans' time
+  /// tolerance, the image's time on the gyro clock plus that tolerance (a scan there is the
+  /// frame's); else t_image.
+  Timestamp measurementsUntil(Timestamp t_image) const;
   /// One camera frame's tracks -> the body pose at its time (always finite).
   FrameEstimate processFrame(VisualFrame frame);
   /// Gyro-predicted rotation of the camera from the last processed frame to t (bias-corrected),
@@ -146,8 +150,11 @@ class WindowCore {
   /// The camera's pixels per radian at a bearing, in factors::BearingFactor::tangentBasis's axes
   /// (TrackObservation::px_per_rad); zero where the model gives none.
   Mat2 pixelsPerRadian(const Vec3& bearing_C) const;
-  /// Pairs every window keyframe's landmarks with its scan's ranges (within the depth gate).
+  /// Pairs every window keyframe's landmarks with its scan's ranges (within the depth gate), after
+  /// attachLateScans.
   void associateLidar();
+  /// Gives a window keyframe without a scan the scan at its time that came after it.
+  void attachLateScans();
   /// When the window's LiDAR ranges agree on a scale lidar_rescale_ratio off the window's, scales
   /// the window to them (rescale.hpp).
   bool rescaleToLidar();

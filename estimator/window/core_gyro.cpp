@@ -46,6 +46,13 @@ Timestamp WindowCore::gyroShift() const {
   return estimatesTimeOffset(model_) ? fromSeconds(map_.time_offset_s[0]) : 0;
 }
 
+Timestamp WindowCore::measurementsUntil(Timestamp t_image) const {
+  // A shift within the scans' tolerance changes no scan's frame: the image time as it is.
+  const Timestamp shift = gyroShift(), tol = fromSeconds(options_.lidar_scan_time_tol_s);
+  if (shift >= -tol) return t_image;
+  return t_image - shift + tol;
+}
+
 std::optional<factors::GyroPreintegration> WindowCore::preintegrate(Timestamp t0, Timestamp t1,
                                                                     const Vec3& bias) const {
   // The image stamps run ahead of the gyro clock by the time offset: the gyro saw [t0, t1]

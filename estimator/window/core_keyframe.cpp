@@ -24,7 +24,29 @@ namespace ovo::estimator {
 
 void WindowCore::associateLidar() {
   if (!use_lidar_) return;
+  attachLateScans();
   for (auto& k : map_.keyframes) lidar_.associate(*k, map_, true);
+}
+
+void WindowCore::attachLateScans() {
+  // A keyframe's scan may come after it: a camera whose stamps run early, before the window has
+  // found the offset (its scans are then placed anew, ScanTimeline::setShift), or a LiDAR that
+  // lags the camera. The scan at the keyframe's time is the keyframe's (the rig's T_B_L, which a
+  // keyframe without a scan has already), with its beams paired to the keyframe's tracks.
+  for (auto& k : map_.keyframes) {
+    if (k->scan) continue;
+    const LidarScan* s = scans_.at(k->t_ns);
+    if (s == nullptr) continue;
+    k->scan = *s;
+    std::vector<TrackObservation> observations;
+    observations.reserve(k->observations.size());
+    for (const auto& [id, o] : k->observations) observations.push_back(o);
+    std::sort(observations.begin(), observations.end(),
+              [](const TrackObservation& a, const TrackObservation& b) {
+                return a.track_id < b.track_id;
+              });
+    k->lidar_candidates = lidar_.candidates(observations, FrameScan{&*k->scan, k->T_B_L});
+  }
 }
 
 bool WindowCore::rescaleToLidar() {
@@ -101,6 +123,7 @@ void WindowCore::solveWindow() {
           s.message.empty() ? "a state came out non-finite" : s.message));
   }
   frames_.setTimeShift(toSeconds(gyroShift()));
+  scans_.setShift(gyroShift());
   last_solve_.residual_blocks = s.residual_blocks;
   last_solve_.iterations = s.iterations;
   removeOutliers(map_, model_, options_);

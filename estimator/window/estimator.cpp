@@ -35,6 +35,9 @@ class WindowEstimator final : public Estimator {
   }
   void addEstimatorGyro(const ImuSample& sample) override { core_.addGyro(sample); }
   void addScan(const LidarScan& scan) override { core_.addScan(scan); }
+  Timestamp measurementsUntil(Timestamp t_image) const override {
+    return core_.measurementsUntil(t_image);
+  }
 
   std::unique_ptr<FrontendFrame> track(Timestamp t_ns, const cv::Mat& grey) override {
     const auto t0 = std::chrono::steady_clock::now();

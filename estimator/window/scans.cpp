@@ -5,9 +5,15 @@
 
 namespace ovo::estimator {
 
-void ScanTimeline::add(const LidarScan& scan, Timestamp keep_from_ns) {
-  scans_.push_back(scan);
+void ScanTimeline::add(LidarScan scan, Timestamp keep_from_ns) {
+  scan.t_ns += shift_;
+  scans_.push_back(std::move(scan));
   while (scans_.size() > 2 && scans_.front().t_ns < keep_from_ns) scans_.erase(scans_.begin());
+}
+
+void ScanTimeline::setShift(Timestamp shift_ns) {
+  for (LidarScan& s : scans_) s.t_ns += shift_ns - shift_;
+  shift_ = shift_ns;
 }
 
 const LidarScan* ScanTimeline::at(Timestamp t_ns) const {

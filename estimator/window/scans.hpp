@@ -35,8 +35,12 @@ class ScanTimeline {
       : tol_(fromSeconds(options.lidar_scan_time_tol_s)),
         max_age_s_(options.lidar_scan_max_age_s) {}
 
-  /// Adds a scan and forgets those older than keep_from (keeping at least two).
-  void add(const LidarScan& scan, Timestamp keep_from_ns);
+  /// Adds a scan stamped on the gyro clock, placed on the images' timeline by the current shift,
+  /// and forgets those older than keep_from (keeping at least two).
+  void add(LidarScan scan, Timestamp keep_from_ns);
+  /// Places every scan on the images' timeline by `shift_ns` (image time = gyro time + shift):
+  /// the newest estimate of the time offset, for the scans that came before it too.
+  void setShift(Timestamp shift_ns);
   /// The scan within lidar_scan_time_tol_s of t (the nearest), or null.
   const LidarScan* at(Timestamp t_ns) const;
   /// The scan at t, else the latest one before it up to lidar_scan_max_age_s older whose rotation
@@ -58,7 +62,8 @@ class ScanTimeline {
  private:
   Timestamp tol_;
   double max_age_s_;
-  std::vector<LidarScan> scans_;  // recent scans, in time order
+  std::vector<LidarScan> scans_;  // recent scans, in time order, on the images' timeline
+  Timestamp shift_ = 0;
 };
 
 }  // namespace ovo::estimator

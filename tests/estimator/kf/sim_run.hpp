@@ -73,7 +73,8 @@ struct EstimatorRun {
 };
 
 /// Runs `name` ("vo", "kf", "window") over the sequence in the offline runner's order: the gyro up
-/// to the first sample at or after the frame, the scans up to the frame, then the image.
+/// to the first sample at or after the frame's measurementsUntil, the scans up to it, then the
+/// image.
 inline EstimatorRun runEstimator(const std::string& name, const SimSequence& seq,
                                  const std::vector<std::string>& sets = {}, bool use_gyro = true,
                                  bool use_lidar = true) {
@@ -90,7 +91,7 @@ inline EstimatorRun runEstimator(const std::string& name, const SimSequence& seq
   std::size_t next_imu = 0, next_scan = 0;
   EstimatorRun run;
   for (const auto& [t_ns, grey] : seq.images) {
-    estimator::feedUntilImage(t_ns, imu, next_imu, scans, next_scan, *est);
+    estimator::feedUntilImage(est->measurementsUntil(t_ns), imu, next_imu, scans, next_scan, *est);
     run.frames.push_back(est->addImage(t_ns, grey));
     estimator::dropTracks(run.frames.back());
   }

@@ -456,7 +456,8 @@ RunWindow runWindow(std::size_t frames, const WindowOptions& options = {}) {
   w.core = std::make_unique<WindowCore>(w.seq.setup, options);
   std::size_t next_imu = 0, next_scan = 0;
   for (std::size_t f = 0; f < frames && f < w.seq.frames.size(); ++f) {
-    feedUntilImage(w.seq.frames[f].t_ns, w.seq.imu, next_imu, w.seq.scans, next_scan, *w.core);
+    feedUntilImage(w.core->measurementsUntil(w.seq.frames[f].t_ns), w.seq.imu, next_imu,
+                   w.seq.scans, next_scan, *w.core);
     w.core->processFrame(w.seq.frames[f].visual);
   }
   return w;

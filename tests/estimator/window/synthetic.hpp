@@ -227,7 +227,8 @@ void feedSequence(const SyntheticSequence& seq, Core& core, OnFrame on_frame) {
   std::size_t next_imu = 0, next_scan = 0;
   for (std::size_t f = 0; f < seq.frames.size(); ++f) {
     const auto& frame = seq.frames[f];
-    estimator::feedUntilImage(frame.t_ns, seq.imu, next_imu, seq.scans, next_scan, core);
+    estimator::feedUntilImage(core.measurementsUntil(frame.t_ns), seq.imu, next_imu, seq.scans,
+                              next_scan, core);
     on_frame(f, core.processFrame(frame.visual));
   }
   core.finish();

@@ -18,6 +18,7 @@ struct OffsetRun {
   double ate_m = 1.0;
   double td_s = 0.0;
   bool estimated = false;
+  int lidar_ranges = 0;
   // The gyro bias history is stamped on the trajectory's clock: the same stamps, frame by frame.
   bool bias_on_the_trajectorys_clock = false;
 };
@@ -29,6 +30,7 @@ OffsetRun runWindow(const SimSequence& seq, bool estimate) {
   EXPECT_TRUE(allPosesFinite(run.trajectory));
   if (const auto s = scoreRun(seq, run.trajectory)) out.ate_m = s->ate_m;
   out.estimated = run.stats.time_offset_s.has_value();
+  out.lidar_ranges = run.stats.lidar_ranges;
   out.td_s = run.stats.time_offset_s.value_or(0.0);
   out.bias_on_the_trajectorys_clock = !run.bias_history.empty() &&
                                       run.bias_history.size() == run.trajectory.size();
@@ -53,6 +55,20 @@ TEST(WindowTimeOffset, IsEstimatedOnlineAndTheTrajectoryComesOutOnTheGyroClock) 
     // poses stamped at the wrong times); the estimate buys that back.
     EXPECT_LT(on.ate_m, 0.6 * off.ate_m);
   }
+}
+
+// A camera whose stamps run early: the image stamped t was exposed at t + 40 ms of the gyro
+// clock, with the scan of that instant. Fed by image stamp, that scan and the gyro up to it come
+// after the image; the keyframes then go without their scans. The measurements of the exposure
+// must reach the window before its image, so the LiDAR keeps (nearly) all its ranges.
+TEST(WindowTimeOffset, ACameraThatRunsEarlyKeepsItsLidarRanges) {
+  const OffsetRun early = runWindow(turnWithOffset(-0.04), true);
+  const OffsetRun zero = runWindow(turnWithOffset(0.0), true);
+  RecordProperty("lidar_ranges_early", early.lidar_ranges);
+  RecordProperty("lidar_ranges_zero", zero.lidar_ranges);
+  ASSERT_GT(zero.lidar_ranges, 100);
+  EXPECT_GE(early.lidar_ranges, 0.9 * zero.lidar_ranges);
+  EXPECT_NEAR(early.td_s, -0.04, 0.003);
 }
 
 TEST(WindowTimeOffset, StaysNearZeroWhenTheClocksAgree) {
