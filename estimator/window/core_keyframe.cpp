@@ -87,7 +87,7 @@ bool WindowCore::rescaleToGround() {
 }
 
 void WindowCore::rescaleBy(double s) {
-  rescaleWindow(s, map_, gauge_, frames_, {last_T_W_B_, velocity_W_});
+  rescaleWindow(s, map_, gauge_, frames_, {last_T_W_B_, velocity_W_}, setup_.T_B_L);
   scale_known_ = true;
   // A restart from the last still frame would start at its pose of the old scale.
   still_reference_.reset();

@@ -8,7 +8,7 @@
 namespace ovo::estimator {
 
 void rescaleWindow(double s, WindowMap& map, WindowGauge& gauge, FrameLog& frames,
-                   const MotionState& motion) {
+                   const MotionState& motion, const SE3& T_B_L) {
   const Vec3 centre = map.keyframes.front()->pose().translation();
   const factors::TerrainScaling terrain = factors::terrainScaling(centre, s);
   std::vector<factors::MarginalizationInfo::BlockMap> moved;
@@ -20,6 +20,13 @@ void rescaleWindow(double s, WindowMap& map, WindowGauge& gauge, FrameLog& frame
     moved.push_back({kf->terrain, terrain.M, terrain.k});
     kf->lidar_rejected.clear();
     kf->readout.velocity_B *= s;  // a rolling shutter's motion through the readout
+    // An older scan's LiDAR pose holds the body's motion from the scan to the keyframe, whose
+    // translation is a length (the rig's T_B_L for a scan at the keyframe or none: unchanged).
+    if (kf->T_B_L.matrix() != T_B_L.matrix()) {
+      const Mat3 R_motion = kf->T_B_L.linear() * T_B_L.linear().transpose();
+      const Vec3 t_motion = kf->T_B_L.translation() - R_motion * T_B_L.translation();
+      kf->T_B_L.translation() = R_motion * T_B_L.translation() + s * t_motion;
+    }
   }
   for (auto& [id, lm] : map.landmarks) lm.rho[0] /= s;
   if (gauge.marginalization) gauge.marginalization = gauge.marginalization->mapped(moved);

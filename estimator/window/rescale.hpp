@@ -19,9 +19,10 @@ struct MotionState {
 
 /// Scales positions by s about the oldest keyframe's: keyframe positions, terrain planes,
 /// landmark inverse depths (by 1/s), the marginalisation prior and a pose prior on a keyframe of
-/// the window, the frames recorded against the window's keyframes and the motion state. Clears
+/// the window, the frames recorded against the window's keyframes, the motion state, and the
+/// body's motion in an older scan's LiDAR pose (Keyframe::T_B_L against the rig's T_B_L). Clears
 /// the keyframes' rejected LiDAR associations (rejected at the wrong scale). Needs a keyframe.
 void rescaleWindow(double s, WindowMap& map, WindowGauge& gauge, FrameLog& frames,
-                   const MotionState& motion);
+                   const MotionState& motion, const SE3& T_B_L);
 
 }  // namespace ovo::estimator

@@ -128,7 +128,7 @@ TEST(WindowRescale, EveryFrameOfTheWindowScalesWithIt) {
   WindowGauge gauge;
   SE3 last = log.open().back().T_W_B;
   Vec3 velocity(0.8, 0.0, 0.0);
-  rescaleWindow(1.5, map, gauge, log, {last, velocity});
+  rescaleWindow(1.5, map, gauge, log, {last, velocity}, SE3::Identity());
   const Trajectory traj = log.trajectory(lookup);
   for (int f = 0; f < 12; ++f) {
     const Vec3 expected = f < 3 ? before[f] : Vec3(centre + 1.5 * (before[f] - centre));
@@ -136,6 +136,38 @@ TEST(WindowRescale, EveryFrameOfTheWindowScalesWithIt) {
   }
   EXPECT_LT((last.translation() - (centre + 1.5 * (before.back() - centre))).norm(), 1e-12);
   EXPECT_DOUBLE_EQ(velocity.x(), 1.2);
+}
+
+// A keyframe whose scan is older than it holds the LiDAR's pose at the scan in its body frame:
+// the rig's T_B_L moved by the body's motion in between (ScanTimeline::scanFor). That motion's
+// translation is a length: a rescale scales it; a keyframe with the rig's own T_B_L keeps it.
+TEST(WindowRescale, AnOlderScansLidarPoseScalesWithTheWindow) {
+  SE3 T_B_L = SE3::Identity();
+  T_B_L.linear() = so3::exp(Vec3(0.0, 0.14, 0.0));
+  T_B_L.translation() = Vec3(0.45, 0.0, 0.45);
+  SE3 motion = SE3::Identity();  // from the scan's body pose to the keyframe's
+  motion.linear() = so3::exp(Vec3(0.0, 0.0, -0.02));
+  motion.translation() = Vec3(-0.04, 0.003, 0.0);
+  WindowMap map;
+  for (int k = 0; k < 2; ++k) {
+    auto kf = std::make_unique<Keyframe>(k == 0 ? T_B_L : SE3(motion * T_B_L));
+    kf->id = k;
+    SE3 T = SE3::Identity();
+    T.translation() = Vec3(1.0 * k, 0.0, 0.0);
+    kf->setPose(T);
+    map.keyframes.push_back(std::move(kf));
+  }
+  WindowGauge gauge;
+  FrameLog log;
+  SE3 last = SE3::Identity();
+  Vec3 velocity = Vec3::Zero();
+  rescaleWindow(2.0, map, gauge, log, {last, velocity}, T_B_L);
+  EXPECT_TRUE(map.keyframes[0]->T_B_L.matrix() == T_B_L.matrix());
+  SE3 scaled = motion;
+  scaled.translation() *= 2.0;
+  const SE3 expected = scaled * T_B_L;
+  EXPECT_LT((map.keyframes[1]->T_B_L.translation() - expected.translation()).norm(), 1e-12);
+  EXPECT_LT((map.keyframes[1]->T_B_L.linear() - expected.linear()).norm(), 1e-12);
 }
 
 // The estimator's gyro buffer holds what later preintegrations need, not the whole run (200 Hz,
