@@ -187,6 +187,7 @@ void OnlinePipeline::runEstimator() {
       if (error_ || frames_.empty()) return;  // failed, or the frontend is done and all is out
       TrackedFrame tracked = std::move(frames_.front());
       frames_.pop_front();
+      wake_.notify_all();  // room in the frame queue (before a wait for the gyro below)
       // A camera found to run early was exposed after its stamp: the gyro up to that instant
       // comes that much later, and the frame waits for it (as the frontend waits for the gyro
       // at its stamp: gyro_wait_ms more at most). A scan that comes after the frame still goes

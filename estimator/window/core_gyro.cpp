@@ -47,7 +47,8 @@ Timestamp WindowCore::gyroShift() const {
 }
 
 Timestamp WindowCore::measurementsUntil(Timestamp t_image) const {
-  // A shift within the scans' tolerance changes no scan's frame: the image time as it is.
+  // Within the scans' tolerance of zero, the image time as it is (the feed of a camera whose
+  // offset was not found to be negative, unchanged).
   const Timestamp shift = gyroShift(), tol = fromSeconds(options_.lidar_scan_time_tol_s);
   if (shift >= -tol) return t_image;
   return t_image - shift + tol;

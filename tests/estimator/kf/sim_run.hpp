@@ -70,6 +70,7 @@ struct EstimatorRun {
   estimator::EstimatorStats stats;
   std::vector<std::pair<Timestamp, Vec3>> bias_history;
   std::vector<estimator::FrameEstimate> frames;
+  Timestamp fed_ahead_ns = 0;  // measurementsUntil(last image) - last image, at the end
 };
 
 /// Runs `name` ("vo", "kf", "window") over the sequence in the offline runner's order: the gyro up
@@ -95,6 +96,9 @@ inline EstimatorRun runEstimator(const std::string& name, const SimSequence& seq
     run.frames.push_back(est->addImage(t_ns, grey));
     estimator::dropTracks(run.frames.back());
   }
+  if (!seq.images.empty())
+    run.fed_ahead_ns =
+        est->measurementsUntil(seq.images.back().first) - seq.images.back().first;
   est->finish();
   run.trajectory = est->trajectory();
   run.stats = est->stats();

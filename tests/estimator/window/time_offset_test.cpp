@@ -19,6 +19,7 @@ struct OffsetRun {
   double td_s = 0.0;
   bool estimated = false;
   int lidar_ranges = 0;
+  double fed_ahead_s = 0.0;  // how far past an image its gyro and scans are fed, at the end
   // The gyro bias history is stamped on the trajectory's clock: the same stamps, frame by frame.
   bool bias_on_the_trajectorys_clock = false;
 };
@@ -31,6 +32,7 @@ OffsetRun runWindow(const SimSequence& seq, bool estimate) {
   if (const auto s = scoreRun(seq, run.trajectory)) out.ate_m = s->ate_m;
   out.estimated = run.stats.time_offset_s.has_value();
   out.lidar_ranges = run.stats.lidar_ranges;
+  out.fed_ahead_s = toSeconds(run.fed_ahead_ns);
   out.td_s = run.stats.time_offset_s.value_or(0.0);
   out.bias_on_the_trajectorys_clock = !run.bias_history.empty() &&
                                       run.bias_history.size() == run.trajectory.size();
@@ -69,6 +71,10 @@ TEST(WindowTimeOffset, ACameraThatRunsEarlyKeepsItsLidarRanges) {
   ASSERT_GT(zero.lidar_ranges, 100);
   EXPECT_GE(early.lidar_ranges, 0.9 * zero.lidar_ranges);
   EXPECT_NEAR(early.td_s, -0.04, 0.003);
+  // The exposure's gyro and scan are fed before the image: the offset found, plus the scans'
+  // time tolerance (4 ms); the clocks that agree are fed as before.
+  EXPECT_NEAR(early.fed_ahead_s, -early.td_s + 0.004, 0.001);
+  EXPECT_EQ(zero.fed_ahead_s, 0.0);
 }
 
 TEST(WindowTimeOffset, StaysNearZeroWhenTheClocksAgree) {
