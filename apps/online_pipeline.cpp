@@ -112,11 +112,16 @@ bool OnlinePipeline::addScan(const LidarScan& scan) {
   return true;
 }
 
+OnlinePipeline::Clock::time_point OnlinePipeline::gyroDeadline(Clock::time_point arrival,
+                                                              Timestamp later_ns) const {
+  const double wait_ms = options_.gyro_wait_ms + 1e-6 * static_cast<double>(later_ns);
+  return arrival + std::chrono::duration_cast<Clock::duration>(
+                       std::chrono::duration<double, std::milli>(wait_ms));
+}
+
 bool OnlinePipeline::gyroReady(const PendingImage& image, Clock::time_point now) const {
   if (!any_gyro_ || last_gyro_t_ >= image.t_ns) return true;
-  return now >=
-         image.arrival + std::chrono::duration_cast<Clock::duration>(
-                             std::chrono::duration<double, std::milli>(options_.gyro_wait_ms));
+  return now >= gyroDeadline(image.arrival);
 }
 
 void OnlinePipeline::setError(std::exception_ptr error) {
@@ -140,10 +145,7 @@ void OnlinePipeline::runFrontend() {
         if (!images_.empty()) {
           const auto now = Clock::now();
           if (stopping_ || gyroReady(images_.front(), now)) break;
-          wake_.wait_until(
-              lock, images_.front().arrival +
-                        std::chrono::duration_cast<Clock::duration>(
-                            std::chrono::duration<double, std::milli>(options_.gyro_wait_ms)));
+          wake_.wait_until(lock, gyroDeadline(images_.front().arrival));
           continue;
         }
         if (stopping_) {
@@ -187,7 +189,7 @@ void OnlinePipeline::runEstimator() {
       if (error_ || frames_.empty()) return;  // failed, or the frontend is done and all is out
       TrackedFrame tracked = std::move(frames_.front());
       frames_.pop_front();
-      wake_.notify_all();  // room in the frame queue (before a wait for the gyro below)
+      wake_.notify_all();  // room in the frame queue
       // A camera found to run early was exposed after its stamp: the gyro up to that instant
       // comes that much later, and the frame waits for it (as the frontend waits for the gyro
       // at its stamp: gyro_wait_ms more at most). A scan that comes after the frame still goes
@@ -195,11 +197,7 @@ void OnlinePipeline::runEstimator() {
       const Timestamp t_ns = tracked.frame->t_ns;
       const Timestamp until = estimator_.measurementsUntil(t_ns);
       if (until > t_ns) {
-        const double wait_ms = options_.gyro_wait_ms + 1e-6 * static_cast<double>(until - t_ns);
-        const auto deadline =
-            tracked.arrival + std::chrono::duration_cast<Clock::duration>(
-                                  std::chrono::duration<double, std::milli>(wait_ms));
-        wake_.wait_until(lock, deadline, [&] {
+        wake_.wait_until(lock, gyroDeadline(tracked.arrival, until - t_ns), [&] {
           return error_ || stopping_ || (any_gyro_ && last_gyro_t_ >= until);
         });
         if (error_) return;
@@ -216,7 +214,6 @@ void OnlinePipeline::runEstimator() {
         scans_.pop_front();
       }
       lock.unlock();
-      wake_.notify_all();  // room in the frame queue
 
       for (const auto& s : gyro) estimator_.addEstimatorGyro(s);
       for (const auto& s : scans) estimator_.addScan(s);

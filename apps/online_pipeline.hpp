@@ -129,6 +129,9 @@ class OnlinePipeline {
   void runEstimator();
   void setError(std::exception_ptr error);  // stops both threads; stop() rethrows it
   bool gyroReady(const PendingImage& image, Clock::time_point now) const;  // under mutex_
+  /// When a frame that arrived at `arrival` stops waiting for its gyro: gyro_wait_ms on, plus
+  /// later_ns for a gyro expected that much after the frame's stamp.
+  Clock::time_point gyroDeadline(Clock::time_point arrival, Timestamp later_ns = 0) const;
 
   estimator::Estimator& estimator_;
   const OnlineOptions options_;
