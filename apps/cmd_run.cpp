@@ -7,6 +7,7 @@
 #include <tbb/global_control.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -153,9 +154,20 @@ int runRun(const RunArgs& args) {
   }
 
   ProgressBar bar(est->name() + (args.realtime ? " (realtime)" : ""), !args.quiet);
-  const ProgressFn progress = [&](int done, int total) { bar.update(done, total); };
   std::vector<estimator::FrameEstimate> frames;
   RunTiming timing;
+  // CPU and memory about once a second (the progress callback comes from one thread).
+  const auto run_start = std::chrono::steady_clock::now();
+  double next_sample_s = 0.0;
+  const ProgressFn progress = [&](int done, int total) {
+    bar.update(done, total);
+    const double wall_s =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - run_start).count();
+    if (wall_s < next_sample_s && done < total) return;
+    timing.resources.push_back(
+        {wall_s, done, processUsage().cpu_s - usage_at_start.cpu_s, currentRssMb()});
+    next_sample_s = wall_s + 1.0;
+  };
   double replay_lag_ms_max = 0.0;
   auto work = [&] {
     if (args.realtime) {
@@ -208,10 +220,13 @@ int runRun(const RunArgs& args) {
   const Trajectory trajectory = est->trajectory();
 
   for (const auto& f : frames) {
+    if (f.is_keyframe) {
+      timing.keyframe_ms.push_back(f.estimator_ms);
+      timing.keyframe_frame.push_back(timing.total_ms.size());
+    }
     timing.frontend_ms.push_back(f.frontend_ms);
     timing.estimator_ms.push_back(f.estimator_ms);
     timing.total_ms.push_back(f.frontend_ms + f.estimator_ms);
-    if (f.is_keyframe) timing.keyframe_ms.push_back(f.estimator_ms);
   }
   const ProcessUsage usage = processUsage();
   timing.cpu_s = usage.cpu_s - usage_at_start.cpu_s;
@@ -260,6 +275,7 @@ int runRun(const RunArgs& args) {
       report.timing.push_back({frames[i].t_ns, frames[i].frontend_ms, frames[i].estimator_ms,
                                i < timing.latency_ms.size() ? timing.latency_ms[i] : -1.0,
                                frames[i].is_keyframe});
+    report.resources = timing.resources;
     report.metrics = metrics;
     report.config_yaml = config.dump();
     writeReport(tmp / "report.html", report);

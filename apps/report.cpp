@@ -7,6 +7,7 @@
 
 #include "apps/svg_plot.hpp"
 #include "common/error.hpp"
+#include "eval/metrics.hpp"
 #include "io/text_reader.hpp"
 
 namespace ovo::app {
@@ -128,6 +129,35 @@ std::string timingPlot(const ReportInputs& in) {
   return svgLinePlot(series, o);
 }
 
+// CPU per frame between samples and the resident memory, against the run's wall time.
+std::string resourcePlot(const ReportInputs& in) {
+  if (in.resources.size() < 2) return "";
+  PlotSeries cpu{"CPU per frame handed in", {}, {}, "#1b9e77"};
+  PlotSeries rss{"resident memory", {}, {}, "#7570b3"};
+  for (std::size_t k = 0; k < in.resources.size(); ++k) {
+    const ResourceSample& r = in.resources[k];
+    if (r.rss_mb >= 0.0) rss.x.push_back(r.wall_s), rss.y.push_back(r.rss_mb);
+    if (k == 0) continue;
+    const ResourceSample& q = in.resources[k - 1];
+    if (r.frames > q.frames)
+      cpu.x.push_back(r.wall_s), cpu.y.push_back(1e3 * (r.cpu_s - q.cpu_s) / (r.frames - q.frames));
+  }
+  PlotOptions o;
+  o.y_include_zero = true;
+  o.x_label = "wall time [s]";
+  o.width_px = 640;
+  o.height_px = 260;
+  o.title = "CPU per frame (user + system, all threads)";
+  o.y_label = "[ms]";
+  std::string s = svgLinePlot({cpu}, o);
+  if (!rss.x.empty()) {
+    o.title = "Resident memory";
+    o.y_label = "[MiB]";
+    s += svgLinePlot({rss}, o);
+  }
+  return s;
+}
+
 }  // namespace
 
 std::string renderReportHtml(const ReportInputs& in) {
@@ -189,9 +219,20 @@ std::string renderReportHtml(const ReportInputs& in) {
         "error is the heading error about the top view's up axis.</p>\n",
         cmp->alignment == "SE(3)" ? "SE(3) (Umeyama)" : "first-pose (SE(3) alignment degenerate)");
 
+  if (!in.groundtruth.empty()) {
+    const eval::Associated a = eval::associateByTime(in.groundtruth, in.estimate);
+    if (const auto drift = eval::driftAlongPath(a)) {
+      h += "<h2>Drift against the distance driven</h2>\n<div class=\"plots\">\n";
+      for (const std::string& plot : svgDriftPlots({{in.estimator, *drift, "#d95f02"}}))
+        h += plot;
+      h += "</div>\n";
+    }
+  }
+
   h += "<h2>Gyro bias and timing</h2>\n<div class=\"plots\">\n";
   h += biasPlot(in);
   h += timingPlot(in);
+  h += resourcePlot(in);
   h += "</div>\n";
   if (in.bias_estimate.empty())
     h += fmt::format("<p class=\"note\">The {} estimator does not estimate the gyro bias.</p>\n",

@@ -1,7 +1,8 @@
 // report.html of `ovo run`: one self-contained page (inline CSS, plots as inline SVG, no script,
 // no external reference) with the top view of estimate and ground truth (SE(3)-aligned for
-// display), position and yaw error over time, the gyro bias estimate against the truth when
-// known, per-frame timing, the metrics table and the configuration used.
+// display), position and yaw error over time, position, heading and scale error against the
+// distance driven, the gyro bias estimate against the truth when known, per-frame timing, CPU
+// and memory over the run, the metrics table and the configuration used.
 #pragma once
 
 #include <filesystem>
@@ -10,6 +11,7 @@
 #include <utility>
 #include <vector>
 
+#include "apps/run_metrics.hpp"
 #include "common/types.hpp"
 
 namespace ovo::app {
@@ -29,6 +31,7 @@ struct ReportInputs {
   Trajectory estimate, groundtruth;  // T_W_B; ground truth may be empty
   std::vector<std::pair<Timestamp, Vec3>> bias_estimate, bias_truth;  // [rad/s]; may be empty
   std::vector<FrameTiming> timing;
+  std::vector<ResourceSample> resources;  // CPU and memory over the run; may be empty
   nlohmann::json metrics;   // metrics.json's object
   std::string config_yaml;  // the configuration used (Config::dump())
 };

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "common/so3.hpp"
 #include "eval/metrics.hpp"
@@ -18,6 +19,20 @@ double percentile(std::vector<double> values, double pct) {
 }
 
 namespace {
+
+// The entries of v whose index is in [lo, hi) (by the index function), their median; NaN when none.
+template <typename T, typename Index, typename Value>
+double medianIn(const std::vector<T>& v, std::size_t lo, std::size_t hi, Index index,
+                Value value) {
+  std::vector<double> in;
+  for (std::size_t k = 0; k < v.size(); ++k) {
+    const std::size_t i = index(k);
+    if (i >= lo && i < hi) in.push_back(value(k));
+  }
+  return in.empty() ? std::numeric_limits<double>::quiet_NaN() : percentile(in, 50);
+}
+
+nlohmann::json finiteOrNull(double v) { return std::isfinite(v) ? nlohmann::json(v) : nullptr; }
 
 // Angle between two translation directions [deg]; 180 when the estimate has none.
 double directionErrorDeg(const Vec3& t_true, const Vec3& t_est) {
@@ -48,6 +63,58 @@ void perFrameErrors(const eval::Associated& a, double min_move_m, std::vector<do
 }
 
 }  // namespace
+
+nlohmann::json costTrend(const RunTiming& timing) {
+  const std::size_t n = timing.total_ms.size();
+  if (n < 200) return nullptr;
+  const std::size_t warm = n / 20, tenth = n / 10;
+  const std::size_t ranges[2][2] = {{warm, warm + tenth}, {n - tenth, n}};
+  // The resource samples are placed by the frames handed in, scaled to the frames processed
+  // (online runs drop some).
+  const double frames_in = timing.resources.empty() ? 0.0 : timing.resources.back().frames;
+  const auto sampleFrame = [&](std::size_t k) {
+    return frames_in > 0.0 ? static_cast<std::size_t>(timing.resources[k].frames / frames_in *
+                                                      static_cast<double>(n))
+                           : n;
+  };
+  nlohmann::json out;
+  double values[2][4];
+  for (int r = 0; r < 2; ++r) {
+    const std::size_t lo = ranges[r][0], hi = ranges[r][1];
+    double* v = values[r];
+    v[0] = medianIn(
+        timing.total_ms, lo, hi, [](std::size_t k) { return k; },
+        [&](std::size_t k) { return timing.total_ms[k]; });
+    v[1] = medianIn(
+        timing.keyframe_ms, lo, hi,
+        [&](std::size_t k) { return k < timing.keyframe_frame.size() ? timing.keyframe_frame[k] : n; },
+        [&](std::size_t k) { return timing.keyframe_ms[k]; });
+    // CPU per frame: from the first to the last sample inside the range.
+    v[2] = std::numeric_limits<double>::quiet_NaN();
+    std::size_t first = timing.resources.size(), last = 0;
+    for (std::size_t k = 0; k < timing.resources.size(); ++k) {
+      const std::size_t f = sampleFrame(k);
+      if (f < lo || f >= hi) continue;
+      first = std::min(first, k);
+      last = std::max(last, k);
+    }
+    if (first < last && timing.resources[last].frames > timing.resources[first].frames)
+      v[2] = 1e3 * (timing.resources[last].cpu_s - timing.resources[first].cpu_s) /
+             (timing.resources[last].frames - timing.resources[first].frames);
+    v[3] = medianIn(timing.resources, lo, hi, sampleFrame,
+                    [&](std::size_t k) { return timing.resources[k].rss_mb; });
+    out[r == 0 ? "first" : "last"] = {{"frames", {lo, hi}},
+                                       {"frame_ms_median", finiteOrNull(v[0])},
+                                       {"keyframe_ms_median", finiteOrNull(v[1])},
+                                       {"cpu_ms_per_frame", finiteOrNull(v[2])},
+                                       {"rss_mb_median", finiteOrNull(v[3])}};
+  }
+  const char* names[4] = {"frame_ms", "keyframe_ms", "cpu_per_frame", "rss"};
+  for (int i = 0; i < 4; ++i)
+    out["ratio"][names[i]] = values[0][i] > 0.0 ? finiteOrNull(values[1][i] / values[0][i])
+                                                 : nlohmann::json(nullptr);
+  return out;
+}
 
 nlohmann::json computeRunMetrics(const Trajectory& estimate, const Trajectory& groundtruth,
                                  const estimator::EstimatorStats& stats, const RunTiming& timing,
@@ -124,6 +191,13 @@ nlohmann::json computeRunMetrics(const Trajectory& estimate, const Trajectory& g
       }
       if (!dir_deg.empty()) m["rpe_trans_dir_deg_median"] = percentile(dir_deg, 50);
       if (const auto drift = eval::kittiDrift(a)) m["drift_pct"] = drift->trans_pct;
+      nlohmann::json segments = nlohmann::json::array();
+      for (const eval::SegmentError& s : eval::segmentErrors(a))
+        segments.push_back({{"length_m", s.length_m},
+                            {"count", s.count},
+                            {"trans_pct", s.trans_pct},
+                            {"rot_deg_per_100m", s.rot_deg_per_100m}});
+      m["segments"] = segments;
       if (const auto origin = eval::alignFirstPose(a.ref, a.est)) {
         if (const auto yaw = eval::finalYawErrorDeg(a, *origin))
           m["final_yaw_err_deg"] = std::abs(*yaw);
@@ -148,6 +222,7 @@ nlohmann::json computeRunMetrics(const Trajectory& estimate, const Trajectory& g
     t["keyframe_ms_max"] = percentile(timing.keyframe_ms, 100);
   }
   if (timing.cpu_s >= 0.0) t["cpu_s"] = timing.cpu_s;
+  if (const nlohmann::json trend = costTrend(timing); !trend.is_null()) t["trend"] = trend;
   if (timing.peak_rss_mb >= 0.0) t["peak_rss_mb"] = timing.peak_rss_mb;
   t["total_ms_median"] = percentile(timing.total_ms, 50);
   t["total_ms_p90"] = percentile(timing.total_ms, 90);

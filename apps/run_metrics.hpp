@@ -10,10 +10,20 @@
 
 namespace ovo::app {
 
+/// The process's CPU and memory at one moment of a run (sampled about once a second).
+struct ResourceSample {
+  double wall_s = 0.0;  // since the run started
+  int frames = 0;       // camera frames handed in so far
+  double cpu_s = 0.0;   // CPU used by the run so far (user + system)
+  double rss_mb = 0.0;  // resident memory now
+};
+
 struct RunTiming {
   std::vector<double> frontend_ms, estimator_ms, total_ms;
   std::vector<double>
-      keyframe_ms;            // estimator_ms of the keyframes (their solve and marginalisation)
+      keyframe_ms;  // estimator_ms of the keyframes (their solve and marginalisation)
+  std::vector<std::size_t> keyframe_frame;  // per keyframe_ms entry: its index in total_ms
+  std::vector<ResourceSample> resources;    // over the run, in time order
   double cpu_s = -1.0;        // user + system CPU of the run, decoding included; < 0: not measured
   double peak_rss_mb = -1.0;  // peak resident memory of the process; < 0: not measured
   double sequence_s = 0.0;    // sensor time covered by the run
@@ -24,12 +34,19 @@ struct RunTiming {
   std::vector<double> latency_ms;     // per processed frame: handed in -> pose out
 };
 
-/// Builds the metrics object. `groundtruth` may be empty. min_move_m: the translation-direction
+/// Builds the metrics object (with `segments`, KITTI's segment errors at 10-200 m, and
+/// timing.trend, the cost at the start and at the end of the run). `groundtruth` may be empty. min_move_m: the translation-direction
 /// error of frame i is measured to the first later frame that truly moved at least this far
 /// (5 cm by default).
 nlohmann::json computeRunMetrics(const Trajectory& estimate, const Trajectory& groundtruth,
                                  const estimator::EstimatorStats& stats, const RunTiming& timing,
                                  double min_move_m = 0.05);
+
+/// The cost of the run's first tenth (after a warm-up of 5 % of the frames) and of its last
+/// tenth: median frame and keyframe time, CPU per frame, median resident memory, and the ratio
+/// last / first of each. A run that costs the same at its end as at its start has ratios near 1.
+/// Null for runs of fewer than 200 frames.
+nlohmann::json costTrend(const RunTiming& timing);
 
 /// Percentile (0..100) of a sample, linear interpolation; 0 for an empty sample.
 double percentile(std::vector<double> values, double pct);

@@ -400,4 +400,59 @@ std::string svgComparisonDocument(const TrajectoryComparison& c, const std::stri
   return s;
 }
 
+std::vector<std::string> svgDriftPlots(const std::vector<DriftSeries>& series, int width_px) {
+  // At most one point per 0.5 m of path: a working session has tens of thousands of poses.
+  constexpr double kSpacingM = 0.5;
+  std::vector<PlotSeries> pos, yaw, scale;
+  for (const DriftSeries& d : series) {
+    PlotSeries p{d.label, {}, {}, d.color}, y{d.label, {}, {}, d.color},
+        s{d.label, {}, {}, d.color};
+    const eval::DriftCurve& c = d.curve;
+    double next = -1.0;
+    for (std::size_t i = 0; i < c.distance_m.size(); ++i) {
+      if (c.distance_m[i] < next && i + 1 < c.distance_m.size()) continue;
+      next = c.distance_m[i] + kSpacingM;
+      p.x.push_back(c.distance_m[i]), p.y.push_back(c.pos_err_m[i]);
+      y.x.push_back(c.distance_m[i]), y.y.push_back(c.yaw_err_deg[i]);
+      s.x.push_back(c.distance_m[i]), s.y.push_back(c.scale_err_pct[i]);
+    }
+    pos.push_back(std::move(p));
+    yaw.push_back(std::move(y));
+    scale.push_back(std::move(s));
+  }
+  PlotOptions o;
+  o.width_px = width_px;
+  o.height_px = 260;
+  o.x_label = "distance driven [m]";
+  o.y_include_zero = true;
+  o.title = "Position error (aligned on the first pose)";
+  o.y_label = "error [m]";
+  std::vector<std::string> out{svgLinePlot(pos, o)};
+  o.title = "Heading error (aligned on the first pose)";
+  o.y_label = "error [deg]";
+  out.push_back(svgLinePlot(yaw, o));
+  o.title = "Scale error over the last 25 m";
+  o.y_label = "error [%]";
+  out.push_back(svgLinePlot(scale, o));
+  return out;
+}
+
+std::string svgDriftDocument(const std::vector<DriftSeries>& series, const std::string& title) {
+  constexpr int kW = 760, kH = 260;
+  const std::vector<std::string> plots = svgDriftPlots(series, kW);
+  const int H = 30 + kH * static_cast<int>(plots.size());
+  std::string s = "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n";
+  s += fmt::format(
+      "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{0}\" height=\"{1}\" "
+      "viewBox=\"0 0 {0} {1}\" font-family=\"DejaVu Sans, Arial, sans-serif\">\n"
+      "<rect x=\"0\" y=\"0\" width=\"{0}\" height=\"{1}\" fill=\"#ffffff\"/>\n"
+      "<text x=\"12\" y=\"20\" font-size=\"15\" font-weight=\"bold\">{2}</text>\n",
+      kW, H, xmlEscape(title));
+  for (std::size_t k = 0; k < plots.size(); ++k)
+    s += fmt::format("<svg x=\"0\" y=\"{}\"", 30 + kH * static_cast<int>(k)) +
+         plots[k].substr(4);
+  s += "</svg>\n";
+  return s;
+}
+
 }  // namespace ovo::app

@@ -9,6 +9,7 @@
 
 #include "common/text.hpp"
 #include "common/types.hpp"
+#include "eval/metrics.hpp"
 
 namespace ovo::app {
 
@@ -83,5 +84,18 @@ std::string svgErrorsOverTime(const TrajectoryComparison& c, int width_px = 640)
 /// `ovo eval --plot`: top view and errors over time side by side in one SVG document.
 std::string svgComparisonDocument(const TrajectoryComparison& c, const std::string& title,
                                   const std::string& time_label = "time [s]");
+
+/// One estimator's drift against the distance driven (eval::driftAlongPath), for plotting.
+struct DriftSeries {
+  std::string label;
+  eval::DriftCurve curve;
+  std::string color = "#1f77b4";
+};
+/// Position, heading and scale error against the distance driven, one line per series: three
+/// <svg> plots (position, heading, scale), each embeddable as it is.
+std::vector<std::string> svgDriftPlots(const std::vector<DriftSeries>& series,
+                                       int width_px = 640);
+/// `ovo eval --drift-plot`: the three plots stacked in one SVG document.
+std::string svgDriftDocument(const std::vector<DriftSeries>& series, const std::string& title);
 
 }  // namespace ovo::app

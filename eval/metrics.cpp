@@ -3,6 +3,7 @@
 #include <Eigen/SVD>
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numbers>
 
 namespace ovo::eval {
@@ -188,13 +189,45 @@ double pathLength(const Trajectory& trajectory) {
   return length;
 }
 
+namespace {
+
+// Reference path length up to each pose.
+std::vector<double> distances(const Trajectory& ref) {
+  std::vector<double> dist(ref.size(), 0.0);
+  for (std::size_t i = 1; i < ref.size(); ++i)
+    dist[i] = dist[i - 1] + (ref[i].T_W_B.translation() - ref[i - 1].T_W_B.translation()).norm();
+  return dist;
+}
+
+// The KITTI devkit's segments: every 10th first frame, to the first frame whose path length
+// from it exceeds L. fn(length index, translation error [m], rotation error [deg]).
+template <typename Fn>
+void forEachSegment(const Associated& pairs, const std::vector<double>& dist,
+                    const std::vector<double>& lengths, Fn&& fn) {
+  constexpr std::size_t kStepFrames = 10;  // the devkit's step_size
+  const std::size_t n = pairs.size();
+  for (std::size_t first = 0; first < n; first += kStepFrames) {
+    for (std::size_t k = 0; k < lengths.size(); ++k) {
+      const double L = lengths[k];
+      const auto it = std::upper_bound(dist.begin() + static_cast<std::ptrdiff_t>(first),
+                                       dist.end(), dist[first] + L);
+      if (it == dist.end()) continue;
+      const auto last = static_cast<std::size_t>(it - dist.begin());
+      const Eigen::Matrix4d Q_rel = relative(pairs.ref[first].T_W_B, pairs.ref[last].T_W_B);
+      const Eigen::Matrix4d P_rel = relative(pairs.est[first].T_W_B, pairs.est[last].T_W_B);
+      const Eigen::Matrix4d E = relative(P_rel, Q_rel);
+      fn(k, E.topRightCorner<3, 1>().norm(),
+         rotationAngleRad(E.topLeftCorner<3, 3>()) * kRadToDeg);
+    }
+  }
+}
+
+}  // namespace
+
 std::optional<DriftResult> kittiDrift(const Associated& pairs) {
   const std::size_t n = pairs.size();
   if (n < 2 || pairs.est.size() != n) return std::nullopt;
-  std::vector<double> dist(n, 0.0);
-  for (std::size_t i = 1; i < n; ++i)
-    dist[i] = dist[i - 1] +
-              (pairs.ref[i].T_W_B.translation() - pairs.ref[i - 1].T_W_B.translation()).norm();
+  const std::vector<double> dist = distances(pairs.ref);
   DriftResult out;
   std::vector<double> lengths = {100, 200, 300, 400, 500, 600, 700, 800};
   if (dist.back() < 800.0) {
@@ -202,24 +235,85 @@ std::optional<DriftResult> kittiDrift(const Associated& pairs) {
     for (double& L : lengths) L = L / 1000.0 * dist.back();
   }
   if (!(lengths.front() > 0.0)) return std::nullopt;
-  constexpr std::size_t kStepFrames = 10;  // the devkit's step_size
   double sum_t = 0.0, sum_r = 0.0;
-  for (std::size_t first = 0; first < n; first += kStepFrames) {
-    for (double L : lengths) {
-      std::size_t last = first;
-      while (last < n && !(dist[last] > dist[first] + L)) ++last;
-      if (last >= n) continue;
-      const Eigen::Matrix4d Q_rel = relative(pairs.ref[first].T_W_B, pairs.ref[last].T_W_B);
-      const Eigen::Matrix4d P_rel = relative(pairs.est[first].T_W_B, pairs.est[last].T_W_B);
-      const Eigen::Matrix4d E = relative(P_rel, Q_rel);
-      sum_t += E.topRightCorner<3, 1>().norm() / L;
-      sum_r += rotationAngleRad(E.topLeftCorner<3, 3>()) * kRadToDeg / L;
-      ++out.segments;
-    }
-  }
+  forEachSegment(pairs, dist, lengths, [&](std::size_t k, double t_m, double r_deg) {
+    sum_t += t_m / lengths[k];
+    sum_r += r_deg / lengths[k];
+    ++out.segments;
+  });
   if (out.segments == 0) return std::nullopt;
   out.trans_pct = 100.0 * sum_t / static_cast<double>(out.segments);
   out.rot_deg_per_m = sum_r / static_cast<double>(out.segments);
+  return out;
+}
+
+std::vector<SegmentError> segmentErrors(const Associated& pairs,
+                                        const std::vector<double>& lengths_m) {
+  std::vector<SegmentError> out;
+  const std::size_t n = pairs.size();
+  if (n < 2 || pairs.est.size() != n) return out;
+  std::vector<double> lengths;
+  for (double L : lengths_m)
+    if (L > 0.0 && std::isfinite(L)) lengths.push_back(L);
+  std::vector<SegmentError> acc(lengths.size());
+  forEachSegment(pairs, distances(pairs.ref), lengths,
+                 [&](std::size_t k, double t_m, double r_deg) {
+                   acc[k].trans_pct += t_m;
+                   acc[k].rot_deg_per_100m += r_deg;
+                   ++acc[k].count;
+                 });
+  for (std::size_t k = 0; k < lengths.size(); ++k) {
+    if (acc[k].count == 0) continue;
+    const double per = 100.0 / (lengths[k] * static_cast<double>(acc[k].count));
+    out.push_back({lengths[k], acc[k].count, acc[k].trans_pct * per,
+                   acc[k].rot_deg_per_100m * per});
+  }
+  return out;
+}
+
+std::optional<DriftCurve> driftAlongPath(const Associated& pairs, double scale_window_m,
+                                         const Vec3& up_W) {
+  const std::size_t n = pairs.size();
+  if (n < 2 || pairs.est.size() != n || !(scale_window_m > 0.0)) return std::nullopt;
+  const auto origin = alignFirstPose(pairs.ref, pairs.est);
+  if (!origin) return std::nullopt;
+  const std::vector<double> dist = distances(pairs.ref);
+  DriftCurve out;
+  // Scale: steps between poses 1 m apart along the reference, summed over the trailing window.
+  std::vector<std::size_t> marks = {0};
+  std::vector<double> step_ref, step_est;  // step k ends at marks[k + 1]
+  constexpr double kStepM = 1.0;
+  Associated last;  // the one pose pair finalYawErrorDeg looks at
+  last.ref.resize(1);
+  last.est.resize(1);
+  for (std::size_t i = 0; i < n; ++i) {
+    if (dist[i] >= dist[marks.back()] + kStepM) {
+      const std::size_t a = marks.back();
+      step_ref.push_back(
+          (pairs.ref[i].T_W_B.translation() - pairs.ref[a].T_W_B.translation()).norm());
+      step_est.push_back(
+          (pairs.est[i].T_W_B.translation() - pairs.est[a].T_W_B.translation()).norm());
+      marks.push_back(i);
+    }
+    out.distance_m.push_back(dist[i]);
+    const Vec3 p = origin->apply(Vec3(pairs.est[i].T_W_B.translation()));
+    out.pos_err_m.push_back((p - pairs.ref[i].T_W_B.translation()).norm());
+    last.ref[0] = pairs.ref[i];
+    last.est[0] = pairs.est[i];
+    out.yaw_err_deg.push_back(
+        finalYawErrorDeg(last, *origin, up_W).value_or(std::numeric_limits<double>::quiet_NaN()));
+    double scale = std::numeric_limits<double>::quiet_NaN();
+    if (dist[marks.back()] >= scale_window_m) {
+      double sum_ref = 0.0, sum_est = 0.0;
+      for (std::size_t k = step_ref.size(); k-- > 0;) {
+        if (dist[marks.back()] - dist[marks[k]] > scale_window_m) break;
+        sum_ref += step_ref[k];
+        sum_est += step_est[k];
+      }
+      if (sum_ref > 0.0) scale = 100.0 * (sum_est / sum_ref - 1.0);
+    }
+    out.scale_err_pct.push_back(scale);
+  }
   return out;
 }
 

@@ -102,6 +102,32 @@ struct DriftResult {
 };
 std::optional<DriftResult> kittiDrift(const Associated& pairs);
 
+/// KITTI's segment errors at fixed lengths, reported per length as the field reports them: for
+/// every 10th first frame, the segment to the first frame whose reference path length from it
+/// exceeds L (the devkit's selection, as kittiDrift), E = (P_i^-1 P_j)^-1 (Q_i^-1 Q_j);
+/// trans_pct = mean ||t(E)|| / L * 100, rot_deg_per_100m = mean angle(E) / L * 100. A length
+/// that no segment reaches is left out.
+struct SegmentError {
+  double length_m = 0.0;
+  std::size_t count = 0;
+  double trans_pct = 0.0;
+  double rot_deg_per_100m = 0.0;
+};
+inline const std::vector<double> kSegmentLengthsM = {10.0, 25.0, 50.0, 100.0, 200.0};
+std::vector<SegmentError> segmentErrors(const Associated& pairs,
+                                        const std::vector<double>& lengths_m = kSegmentLengthsM);
+
+/// Odometry drift against the distance driven (the reference's path length): the estimate is
+/// aligned on the first pose (alignFirstPose), then per pose the position error [m], the signed
+/// heading error about `up_W` [deg] and the scale error [%] over the last `scale_window_m` of
+/// path (100 (sum |dp_est| / sum |dp_ref| - 1) over steps 1 m apart along the reference; NaN
+/// until that much path is behind).
+struct DriftCurve {
+  std::vector<double> distance_m, pos_err_m, yaw_err_deg, scale_err_pct;
+};
+std::optional<DriftCurve> driftAlongPath(const Associated& pairs, double scale_window_m = 25.0,
+                                         const Vec3& up_W = Vec3::UnitZ());
+
 /// Heading error at the last pose about the world's `up_W` axis [deg], signed in (-180, 180]:
 /// the yaw of (R_align R_est) R_ref^T. Use alignFirstPose for odometry drift.
 std::optional<double> finalYawErrorDeg(const Associated& pairs, const Similarity& alignment,

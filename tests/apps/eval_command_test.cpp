@@ -3,6 +3,7 @@
 
 #include <cstdlib>
 #include <fstream>
+#include <sstream>
 #include <nlohmann/json.hpp>
 
 #include "tests/test_support.hpp"
@@ -56,6 +57,58 @@ TEST(EvalCommand, KittiOrbMatchesEvoApeAndRpe) {
   EXPECT_NEAR(rpe["trans"]["mean"].get<double>(), 0.16901737200653275, 1e-6);
   for (const char* key : {"rmse", "mean", "median", "max"})
     EXPECT_TRUE(rpe["rot_deg"].contains(key)) << key;
+}
+
+// Issue 59: several estimates in one call, KITTI's segment errors for each, and their drift
+// against the distance driven in one SVG.
+TEST(EvalCommand, SeveralEstimatesWithSegmentErrorsAndOneDriftPlot) {
+  OVO_REQUIRE_BINARY();
+  OVO_REQUIRE_DATA("traj-eval-evo/KITTI_00_gt.txt");
+  const fs::path dir = tempDir();
+  const std::string base = "eval --format kitti --gt " +
+                           quoted(sharedData("traj-eval-evo/KITTI_00_gt.txt")) + " --est " +
+                           quoted(sharedData("traj-eval-evo/KITTI_00_ORB.txt")) + " --est " +
+                           quoted(sharedData("traj-eval-evo/KITTI_00_SPTAM.txt"));
+  const fs::path svg = dir / "drift.svg";
+  std::string out, err;
+  ASSERT_EQ(runOvo(base + " --labels orb,sptam --drift-plot " + quoted(svg), &out, &err), 0)
+      << err;
+  const auto j = nlohmann::json::parse(out);
+  ASSERT_EQ(j["estimates"].size(), 2u);
+  EXPECT_NEAR(j["estimates"][0]["ate"]["rmse"].get<double>(), 1.3034497145650266, 1e-6);
+  EXPECT_NE(j["estimates"][1]["est"].get<std::string>().find("SPTAM"), std::string::npos);
+  for (const auto& e : j["estimates"]) {
+    ASSERT_EQ(e["segments"].size(), 5u);  // 10, 25, 50, 100 and 200 m
+    EXPECT_EQ(e["segments"][4]["length_m"].get<double>(), 200.0);
+    EXPECT_GT(e["segments"][4]["trans_pct"].get<double>(), 0.0);
+  }
+  std::ifstream in(svg);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  const std::string text = ss.str();
+  EXPECT_EQ(text.rfind("<?xml", 0), 0u);
+  for (const char* s : {">orb<", ">sptam<", "distance driven [m]", "Heading error",
+                        "Scale error over the last 25 m"})
+    EXPECT_NE(text.find(s), std::string::npos) << s;
+  EXPECT_EQ(text.find("nan"), std::string::npos);
+
+  // One estimate: the JSON object as before (no "estimates"), now with its segments.
+  ASSERT_EQ(runOvo("eval --format kitti --gt " +
+                       quoted(sharedData("traj-eval-evo/KITTI_00_gt.txt")) + " --est " +
+                       quoted(sharedData("traj-eval-evo/KITTI_00_ORB.txt")),
+                   &out, &err),
+            0)
+      << err;
+  const auto one = nlohmann::json::parse(out);
+  EXPECT_FALSE(one.contains("estimates"));
+  EXPECT_EQ(one["segments"].size(), 5u);
+
+  // Wrong uses name the option.
+  EXPECT_EQ(runOvo(base + " --labels orb", &out, &err), 2);
+  EXPECT_NE(err.find("--labels"), std::string::npos) << err;
+  EXPECT_EQ(runOvo(base + " --plot " + quoted(dir / "p.svg"), &out, &err), 2);
+  EXPECT_NE(err.find("--plot"), std::string::npos) << err;
+  EXPECT_FALSE(fs::exists(dir / "p.svg"));
 }
 
 TEST(EvalCommand, TumAndEurocFilesWithAutoDetectionAndSim3) {

@@ -283,6 +283,8 @@ ReportInputs sampleReport() {
     in.timing.push_back(
         {in.estimate[i].t_ns, 12.0 + i % 5, keyframe ? 60.0 : 3.0, 40.0 + i % 7, keyframe});
   }
+  // CPU and memory once a second: 20 ms of CPU a frame, memory growing by 1 MiB a second.
+  for (int k = 0; k < 10; ++k) in.resources.push_back({1.0 * k, 6 * k, 0.12 * k, 80.0 + k});
   in.metrics = {{"frames", 60},
                 {"ate_rmse_m", 0.05},
                 {"time_offset_s", 0.0191},
@@ -295,8 +297,9 @@ ReportInputs sampleReport() {
 TEST(Report, HasEveryPlotAsWellFormedSvgWithTheMetricsAndTheConfiguration) {
   const std::string html = renderReportHtml(sampleReport());
   const auto svgs = svgElements(html);
-  // Top view, position error, yaw error, gyro bias, timing.
-  ASSERT_EQ(svgs.size(), 5u);
+  // Top view, position error, yaw error; position, heading and scale error against the
+  // distance; gyro bias, timing, CPU per frame, memory.
+  ASSERT_EQ(svgs.size(), 10u);
   for (const auto& svg : svgs) {
     EXPECT_EQ(xmlProblem(svg), "") << svg.substr(0, 200);
     EXPECT_FALSE(hasNonFiniteNumber(svg));
@@ -308,6 +311,12 @@ TEST(Report, HasEveryPlotAsWellFormedSvgWithTheMetricsAndTheConfiguration) {
   EXPECT_NE(html.find("keyframe (solve + marginalisation)"), std::string::npos);
   EXPECT_NE(html.find("keyframe solve p90"), std::string::npos);
   EXPECT_NE(html.find("CPU (user + system)"), std::string::npos);
+  // Issue 59: drift against the distance driven, CPU and memory over the run.
+  EXPECT_NE(html.find("Drift against the distance driven"), std::string::npos);
+  EXPECT_NE(html.find("Scale error over the last 25 m"), std::string::npos);
+  EXPECT_NE(html.find("distance driven [m]"), std::string::npos);
+  EXPECT_NE(html.find("CPU per frame (user + system, all threads)"), std::string::npos);
+  EXPECT_NE(html.find("Resident memory"), std::string::npos);
   // Issue 42: the window's estimate of the camera-gyro time offset, in ms.
   EXPECT_NE(html.find("19.1 ms"), std::string::npos);
   EXPECT_NE(html.find("camera-gyro time offset (estimated)"), std::string::npos);
@@ -326,7 +335,8 @@ TEST(Report, WithoutGroundTruthShowsTheEstimateAlone) {
   in.metrics = {{"frames", 60}};
   const std::string html = renderReportHtml(in);
   const auto svgs = svgElements(html);
-  ASSERT_EQ(svgs.size(), 3u);  // top view, gyro bias, timing
+  ASSERT_EQ(svgs.size(), 5u);  // top view, gyro bias, timing, CPU, memory
+  EXPECT_EQ(html.find("Drift against the distance driven"), std::string::npos);
   for (const auto& svg : svgs) EXPECT_EQ(xmlProblem(svg), "");
   EXPECT_NE(html.find("no ground truth"), std::string::npos);
 }
@@ -366,7 +376,7 @@ TEST(Report, RendersInHeadlessChromiumWithEveryPlot) {
   const std::string dom = runCapture("timeout 120 " + *chromium + flags + " --dump-dom " + url +
                                      " 2>'" + (dir / "stderr.txt").string() + "'");
   ASSERT_NE(dom.find("</html>"), std::string::npos) << "chromium printed no DOM";
-  EXPECT_EQ(svgElements(dom).size(), 5u);
+  EXPECT_EQ(svgElements(dom).size(), 10u);
   EXPECT_NE(dom.find("<polyline"), std::string::npos);
   EXPECT_NE(dom.find("ovo run: window"), std::string::npos);
   // The browser's console reports no error for the page.

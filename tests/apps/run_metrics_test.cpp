@@ -82,6 +82,59 @@ TEST(RunMetrics, AnEstimateThatStandsStillGetsTheWorstDirectionError) {
   EXPECT_NEAR(m["rpe_trans_dir_deg_median"].get<double>(), 180.0, 1e-9);
 }
 
+TEST(RunMetrics, SegmentErrorsAtTheLengthsThePathReaches) {
+  // 60 m at 5 cm a frame, 1 % too long: 10, 25 and 50 m segments, each about 1 % off.
+  const Trajectory gt = straightDrive(1201, 0.05);
+  const Trajectory est = straightDrive(1201, 0.0505);
+  const nlohmann::json m = computeRunMetrics(est, gt, {}, {}, 0.05);
+  ASSERT_TRUE(m.contains("segments"));
+  const auto& seg = m["segments"];
+  ASSERT_EQ(seg.size(), 3u);
+  EXPECT_EQ(seg[0]["length_m"].get<double>(), 10.0);
+  EXPECT_EQ(seg[2]["length_m"].get<double>(), 50.0);
+  for (const auto& s : seg) {
+    EXPECT_NEAR(s["trans_pct"].get<double>(), 1.0, 0.01);
+    EXPECT_NEAR(s["rot_deg_per_100m"].get<double>(), 0.0, 1e-9);
+    EXPECT_GT(s["count"].get<int>(), 0);
+  }
+}
+
+TEST(RunMetrics, CostTrendComparesTheFirstAndTheLastTenth) {
+  // 1000 frames: a frame costs 20 ms, a keyframe (every 5th) 60 ms at the start and 66 at the
+  // end; 25 ms of CPU a frame; memory 100 MiB, 150 in the last tenth (a leak would look so).
+  RunTiming t;
+  for (std::size_t i = 0; i < 1000; ++i) {
+    const bool late = i >= 900;
+    const bool keyframe = i % 5 == 0;
+    if (keyframe) {
+      t.keyframe_ms.push_back(late ? 66.0 : 60.0);
+      t.keyframe_frame.push_back(i);
+    }
+    t.total_ms.push_back(keyframe ? (late ? 66.0 : 60.0) : 20.0);
+  }
+  for (int k = 0; k <= 100; ++k)
+    t.resources.push_back({0.5 * k, 10 * k, 0.025 * 10 * k, k * 10 >= 900 ? 150.0 : 100.0});
+  const nlohmann::json trend = costTrend(t);
+  ASSERT_FALSE(trend.is_null());
+  EXPECT_EQ(trend["first"]["frames"][0].get<int>(), 50);  // after a 5 % warm-up
+  EXPECT_EQ(trend["first"]["frames"][1].get<int>(), 150);
+  EXPECT_EQ(trend["last"]["frames"][0].get<int>(), 900);
+  EXPECT_NEAR(trend["first"]["frame_ms_median"].get<double>(), 20.0, 1e-9);
+  EXPECT_NEAR(trend["first"]["keyframe_ms_median"].get<double>(), 60.0, 1e-9);
+  EXPECT_NEAR(trend["last"]["keyframe_ms_median"].get<double>(), 66.0, 1e-9);
+  EXPECT_NEAR(trend["first"]["cpu_ms_per_frame"].get<double>(), 25.0, 1e-9);
+  EXPECT_NEAR(trend["ratio"]["frame_ms"].get<double>(), 1.0, 1e-9);
+  EXPECT_NEAR(trend["ratio"]["keyframe_ms"].get<double>(), 1.1, 1e-9);
+  EXPECT_NEAR(trend["ratio"]["cpu_per_frame"].get<double>(), 1.0, 1e-9);
+  EXPECT_NEAR(trend["ratio"]["rss"].get<double>(), 1.5, 1e-9);
+  // Too short a run for a trend, and metrics.json has none then.
+  RunTiming short_run;
+  short_run.total_ms.assign(100, 20.0);
+  EXPECT_TRUE(costTrend(short_run).is_null());
+  EXPECT_FALSE(computeRunMetrics({}, {}, {}, short_run)["timing"].contains("trend"));
+  EXPECT_TRUE(computeRunMetrics({}, {}, {}, t)["timing"].contains("trend"));
+}
+
 TEST(RunMetrics, AStandstillGivesNoDirectionPairs) {
   const Trajectory gt = straightDrive(30, 0.0);
   const nlohmann::json m = computeRunMetrics(gt, gt, {}, {}, 0.05);

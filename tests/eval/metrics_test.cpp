@@ -267,6 +267,86 @@ TEST(Drift, ShortRunUsesFractionsOfItsLength) {
   EXPECT_NEAR(drift->trans_pct, 2.0, 0.2);
 }
 
+// A straight drive along x at 5 cm a pose (20 Hz at 1 m/s), `n` poses.
+Trajectory straightAlongX(int n, double scale = 1.0) {
+  Trajectory t;
+  for (int i = 0; i < n; ++i)
+    t.push_back({i * 50'000'000LL, pose(Mat3::Identity(), Vec3(scale * 0.05 * i, 0, 0))});
+  return t;
+}
+
+TEST(Segments, AScaleErrorIsTheTranslationErrorAtEveryLength) {
+  // 2 % too long: a segment of reference length d (the first pose beyond L, so L < d <= L +
+  // 5 cm) is 0.02 d too long, 2 d / L % of L; no rotation error.
+  const Trajectory ref = straightAlongX(2000), est = straightAlongX(2000, 1.02);
+  const auto seg = segmentErrors(Associated{ref, est});
+  ASSERT_EQ(seg.size(), 3u);  // 99.95 m of path: no segment beyond 100 m
+  const double lengths[] = {10.0, 25.0, 50.0};
+  for (std::size_t k = 0; k < seg.size(); ++k) {
+    const double L = lengths[k];
+    EXPECT_EQ(seg[k].length_m, L);
+    EXPECT_GE(seg[k].trans_pct, 2.0 - 1e-9) << L;
+    EXPECT_LE(seg[k].trans_pct, 2.0 * (L + 0.05 + 1e-9) / L) << L;
+    EXPECT_NEAR(seg[k].rot_deg_per_100m, 0.0, 1e-9) << L;
+    // One segment from every 10th pose whose L of path is still ahead.
+    EXPECT_EQ(seg[k].count, static_cast<std::size_t>((1999 - std::floor(L / 0.05)) / 10) + 1)
+        << L;
+  }
+}
+
+TEST(Segments, AHeadingThatCreepsIsTheRotationErrorPerHundredMetres) {
+  // The estimate's heading turns 0.3 deg per metre driven more than the truth's: a segment of
+  // length d has 0.3 d deg of rotation error, 30 d / L deg per 100 m.
+  const Trajectory ref = straightAlongX(4200);
+  Trajectory est = ref;
+  for (std::size_t i = 0; i < est.size(); ++i)
+    est[i].T_W_B.linear() = yaw(0.3 * kDeg * 0.05 * static_cast<double>(i));
+  const auto seg = segmentErrors(Associated{ref, est}, {10.0, 100.0, 200.0, 300.0});
+  ASSERT_EQ(seg.size(), 3u);
+  for (const auto& s : seg) {
+    EXPECT_GE(s.rot_deg_per_100m, 30.0 - 1e-9) << s.length_m;
+    EXPECT_LE(s.rot_deg_per_100m, 30.0 * (s.length_m + 0.05 + 1e-9) / s.length_m) << s.length_m;
+  }
+  EXPECT_TRUE(segmentErrors(Associated{ref, est}, {}).empty());
+  EXPECT_TRUE(segmentErrors(Associated{}, kSegmentLengthsM).empty());
+}
+
+TEST(DriftAlongPath, ZeroForAPerfectEstimateAndTheKnownErrorsOtherwise) {
+  const Trajectory ref = straightAlongX(1200);  // 60 m
+  const auto exact = driftAlongPath(Associated{ref, ref});
+  ASSERT_TRUE(exact);
+  ASSERT_EQ(exact->distance_m.size(), ref.size());
+  EXPECT_NEAR(exact->distance_m.back(), 59.95, 1e-9);
+  for (std::size_t i = 0; i < ref.size(); ++i) {
+    EXPECT_NEAR(exact->pos_err_m[i], 0.0, 1e-12);
+    EXPECT_NEAR(exact->yaw_err_deg[i], 0.0, 1e-12);
+    if (exact->distance_m[i] < 25.0) {
+      EXPECT_TRUE(std::isnan(exact->scale_err_pct[i]));
+    }
+  }
+  EXPECT_NEAR(exact->scale_err_pct.back(), 0.0, 1e-9);
+
+  // 3 % too long, and an estimate that starts elsewhere, turned by 40 deg: the first-pose
+  // alignment takes that out; what is left is 0.03 d of position error and +3 % of scale.
+  Trajectory est = straightAlongX(1200, 1.03);
+  SE3 offset = pose(yaw(40.0 * kDeg), Vec3(5.0, -2.0, 1.0));
+  for (auto& p : est) p.T_W_B = offset * p.T_W_B;
+  // From 40 m on, the heading creeps by 0.5 deg per metre (positions kept).
+  for (std::size_t i = 800; i < est.size(); ++i)
+    est[i].T_W_B.linear() =
+        yaw(40.0 * kDeg) * yaw(0.5 * kDeg * 0.05 * static_cast<double>(i - 800));
+  const auto drift = driftAlongPath(Associated{ref, est});
+  ASSERT_TRUE(drift);
+  for (std::size_t i = 0; i < ref.size(); i += 100) {
+    const double d = drift->distance_m[i];
+    EXPECT_NEAR(drift->pos_err_m[i], 0.03 * d, 1e-9) << d;
+    EXPECT_NEAR(drift->yaw_err_deg[i], i < 800 ? 0.0 : 0.5 * (d - 40.0), 1e-6) << d;
+    if (d >= 26.0) {
+      EXPECT_NEAR(drift->scale_err_pct[i], 3.0, 1e-6) << d;
+    }
+  }
+}
+
 TEST(FinalYaw, SignedHeadingErrorAboutUp) {
   Trajectory ref = wigglyPath(30);
   Trajectory est = ref;
