@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <optional>
+#include <vector>
 
 #include "common/config.hpp"
 #include "common/so3.hpp"
@@ -117,6 +118,63 @@ TEST(Trajectory, StandstillStopsCompletelyAndRestarts) {
     }
   }
   EXPECT_GE(stops, 2);
+}
+
+// Issue 59: a working session. At least 8 rows of at least 60 m, U-turns at alternating
+// headlands, a few stops, at least 600 m; the realities of vineyard_real all on.
+TEST(Trajectory, VineyardBlockIsAWholeBlockWithTheRealitiesOfARealRun) {
+  const Scenario s = fromFile("vineyard_block");
+  const Scenario real = fromFile("vineyard_real");
+  EXPECT_GE(s.trajectory.passes, 8);
+  EXPECT_GE(s.world.row_length_m, 60.0);
+  EXPECT_GE(s.world.num_rows, s.trajectory.first_interrow + s.trajectory.passes + 1);
+  EXPECT_EQ(s.world.ground_roughness_m, real.world.ground_roughness_m);
+  EXPECT_EQ(s.world.wind_amplitude_m, real.world.wind_amplitude_m);
+  EXPECT_GT(s.world.grade_pct, 0.0);
+  EXPECT_GT(s.world.side_tilt_pct, 0.0);
+  EXPECT_EQ(s.camera.time_offset_s, real.camera.time_offset_s);
+  EXPECT_EQ(s.camera.rolling_shutter_s, real.camera.rolling_shutter_s);
+  EXPECT_EQ(s.camera.frame_drop_probability, real.camera.frame_drop_probability);
+  EXPECT_TRUE(s.camera.auto_exposure);
+  EXPECT_TRUE(s.lidar.sweep);
+
+  const Planned p(s);
+  double length = 0.0, still_since = -1.0;
+  int stops = 0, direction = 0;
+  Vec3 last = p.trajectory.T_W_B(0.0).translation();
+  std::vector<double> uturn_x;  // where the heading reversed (the headland of each U-turn)
+  for (double t = 0.0; t < p.trajectory.duration(); t += 0.02) {
+    const BodyState st = p.trajectory.state(t);
+    const Vec3 pos = st.T_W_B.translation();
+    length += (pos - last).norm();
+    last = pos;
+    // Stops: standing still for more than a second between moves (not the start and end holds).
+    const bool still = st.v_W.norm() < 1e-9;
+    if (!still) {
+      if (still_since > 2.0 && t - still_since > 1.0) ++stops;
+      still_since = -1.0;
+    } else if (still_since < 0.0) {
+      still_since = t;
+    }
+    // Driving along +x or -x: a change of direction is a U-turn.
+    const double along = st.T_W_B.linear()(0, 0);
+    const int now = along > 0.9 ? 1 : along < -0.9 ? -1 : 0;
+    if (now != 0 && direction != 0 && now != direction) uturn_x.push_back(pos.x());
+    if (now != 0) direction = now;
+  }
+  EXPECT_GE(length, 600.0);
+  EXPECT_GE(stops, 3);
+  ASSERT_EQ(uturn_x.size(), static_cast<std::size_t>(s.trajectory.passes - 1));
+  for (std::size_t k = 0; k < uturn_x.size(); ++k) {  // in the headlands, at alternating ends
+    EXPECT_TRUE(uturn_x[k] < 0.0 || uturn_x[k] > s.world.row_length_m) << uturn_x[k];
+    if (k > 0) {
+      EXPECT_NE(uturn_x[k] < 0.0, uturn_x[k - 1] < 0.0) << k;
+    }
+  }
+  // It ends in the row after the last: 8 inter-rows driven, one after the other.
+  const SE3 end = p.trajectory.T_W_B(p.trajectory.duration() - 2.0);
+  EXPECT_NEAR(end.translation().y(),
+              p.world.interrowY(s.trajectory.first_interrow + s.trajectory.passes - 1), 0.3);
 }
 
 TEST(Trajectory, SeedJittersTheMotion) {
