@@ -65,12 +65,11 @@ HeightMarch::HeightMarch(const HeightField& field, const Vec3& o, const Vec3& d,
   const double x = o.x() + t0 * d.x(), y = o.y() + t0 * d.y();
   for (std::size_t i = 0; i < n; ++i) {
     const auto& w = field.waves_[i];
-    const double theta = w.kx * x + w.ky * y + w.phase;
-    c_[i] = w.amplitude * std::cos(theta);
-    s_[i] = w.amplitude * std::sin(theta);
-    const double step = (w.kx * d.x() + w.ky * d.y()) * dt;
-    cr_[i] = std::cos(step);
-    sr_[i] = std::sin(step);
+    double sin_theta, cos_theta;
+    sinCos(w.kx * x + w.ky * y + w.phase, &sin_theta, &cos_theta);
+    c_[i] = w.amplitude * cos_theta;
+    s_[i] = w.amplitude * sin_theta;
+    sinCos((w.kx * d.x() + w.ky * d.y()) * dt, &sr_[i], &cr_[i]);
   }
 }
 
@@ -133,11 +132,11 @@ double HeightField::height(double x, double y, Vec2* grad) const {
   }
   double h = 0.0, gx = 0.0, gy = 0.0;
   for (const Wave& wave : waves_) {
-    const double theta = wave.kx * x + wave.ky * y + wave.phase;
-    const double c = std::cos(theta);
-    h += wave.amplitude * c;
+    double sin_theta, cos_theta;
+    sinCos(wave.kx * x + wave.ky * y + wave.phase, &sin_theta, &cos_theta);
+    h += wave.amplitude * cos_theta;
     if (grad) {
-      const double s = wave.amplitude * std::sin(theta);
+      const double s = wave.amplitude * sin_theta;
       gx -= s * wave.kx;
       gy -= s * wave.ky;
     }
@@ -151,6 +150,8 @@ HeightSample HeightField::sample(double x, double y, const Vec2& along) const {
   const double w = window(x, y, nullptr);
   if (w == 0.0) return out;
   for (const Wave& wave : waves_) {
+    // libm here: the body's motion (and so the gyro and the ground truth) stays bit for bit
+    // what it was before the renderer's faster sinCos.
     const double theta = wave.kx * x + wave.ky * y + wave.phase;
     const double c = wave.amplitude * std::cos(theta), s = wave.amplitude * std::sin(theta);
     const Vec2 k(wave.kx, wave.ky);

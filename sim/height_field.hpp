@@ -8,12 +8,48 @@
 
 #include <Eigen/Core>
 #include <array>
+#include <cmath>
 #include <cstdint>
 #include <vector>
 
 #include "common/types.hpp"
 
 namespace ovo::sim {
+
+/// sin and cos of x together, within a few ulp of libm's for |x| up to ~1e6 (a wave's phase
+/// over a vineyard is at most a few thousand radians): x reduced by the nearest multiple of pi/2
+/// (pi/2 in three parts, Cody and Waite), then the minimax polynomials of fdlibm's kernels on
+/// [-pi/4, pi/4]. Inline and branch-light: libm's general sincos (for any argument) dominated the
+/// render of rough ground, whose rays meet a sum of waves.
+inline void sinCos(double x, double* s, double* c) {
+  constexpr double kTwoOverPi = 6.36619772367581382433e-01;
+  constexpr double kPio2a = 1.57079632673412561417e+00;  // the first 33 bits of pi/2
+  constexpr double kPio2b = 6.07710050650619224932e-11;  // the next 33 bits
+  constexpr double kPio2c = 2.02226624871116645580e-21;  // the rest
+  const double k = std::nearbyint(x * kTwoOverPi);
+  const double r = ((x - k * kPio2a) - k * kPio2b) - k * kPio2c;
+  const double z = r * r;
+  const double sin_r =
+      r + r * z *
+              (-1.66666666666666324348e-01 +
+               z * (8.33333333332248946124e-03 +
+                    z * (-1.98412698298579493134e-04 +
+                         z * (2.75573137070700676789e-06 +
+                              z * (-2.50507602534068634195e-08 + z * 1.58969099521155010221e-10)))));
+  const double cos_r =
+      1.0 - 0.5 * z +
+      z * z *
+          (4.16666666666666019037e-02 +
+           z * (-1.38888888888741095749e-03 +
+                z * (2.48015872894767294178e-05 +
+                     z * (-2.75573143513906633035e-07 +
+                          z * (2.08757232129817482790e-09 + z * -1.13596475577881948265e-11)))));
+  const long q = static_cast<long>(k) & 3;
+  const double sv = (q & 1) ? cos_r : sin_r;
+  const double cv = (q & 1) ? sin_r : cos_r;
+  *s = (q & 2) ? -sv : sv;
+  *c = ((q + 1) & 2) ? -cv : cv;
+}
 
 /// Height, gradient, Hessian and third derivatives of a height field at one point (metres; the
 /// coordinates are world x and y).
