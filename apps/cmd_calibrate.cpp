@@ -20,6 +20,7 @@
 #include "calib/camera_calibration.hpp"
 #include "calib/corners_file.hpp"
 #include "calib/model_comparison.hpp"
+#include "calib/model_selection.hpp"
 #include "calib/rig_calibration.hpp"
 #include "camera/calib_io.hpp"
 #include "common/config.hpp"
@@ -37,9 +38,10 @@ namespace fs = std::filesystem;
 
 struct CameraArgs {
   std::string images, corners, board, model = "ocam", out, reference, image_size;
-  std::string board_shape = "shared";
+  std::string board_shape = "auto";
   double square_m = 0.0;
-  int degree = 4;
+  int degree = 0;                    // 0: chosen by held-out error among 3-6
+  std::vector<std::string> exclude;  // images left out by the user
   int min_boards = 3;
   double huber_px = 1.0;
   bool no_views = false;
@@ -158,8 +160,15 @@ int runCalibrateCamera(const CameraArgs& args) {
   const calib::BoardSpec board = calib::parseBoardSpec(args.board, args.square_m);
   calib::CalibrationOptions options;
   options.model = calib::parseCameraModel(args.model);
-  options.board_shape = calib::parseBoardShape(args.board_shape);
-  options.ocam_degree = args.degree;
+  const bool auto_shape = args.board_shape == "auto";
+  options.board_shape = auto_shape ? calib::BoardShape::kShared
+                                   : calib::parseBoardShape(args.board_shape, "--board-shape");
+  if (args.degree != 0 && (args.degree < 2 || args.degree > 7))
+    fail("--degree: expected an OCam polynomial degree of 2 to 7 (or 0 to choose), got {}",
+         args.degree);
+  if (args.degree != 0 && options.model != calib::CameraModelKind::kOcam)
+    fail("--degree: only the ocam model has a polynomial degree, not --model {}", args.model);
+  options.ocam_degree = args.degree == 0 ? 4 : args.degree;
   options.min_boards = args.min_boards;
   options.huber_px = args.huber_px;
   std::optional<camera::Camera> reference;
@@ -238,6 +247,42 @@ int runCalibrateCamera(const CameraArgs& args) {
       if (!detections[k].board) run.not_detected.push_back({images[k].name, detections[k].reason});
   }
 
+  // --exclude: boards the user leaves out (each must name a board that was found).
+  for (const std::string& name : args.exclude) {
+    const auto it = std::find_if(run.detected.begin(), run.detected.end(),
+                                 [&](const calib::BoardObservation& b) { return b.image == name; });
+    if (it == run.detected.end())
+      fail("--exclude {}: no board of that image was found (boards found: {})", name,
+           [&] {
+             std::string list;
+             for (const auto& b : run.detected) list += (list.empty() ? "" : ", ") + b.image;
+             return list;
+           }());
+    run.detected.erase(it);
+    run.excluded.push_back(name);
+  }
+
+  // The candidates: the degree and the board shape the user did not fix, scored by their
+  // held-out error.
+  const std::vector<calib::ModelCandidate> candidates = calib::modelCandidates(
+      options.model, args.degree,
+      auto_shape ? std::nullopt : std::optional<calib::BoardShape>(options.board_shape));
+  run.selection = calib::selectModel(run.detected, candidates, options);
+  const calib::ModelCandidate& chosen = run.selection->scores[run.selection->chosen].candidate;
+  options.ocam_degree = chosen.degree;
+  options.board_shape = chosen.board_shape;
+  run.options = options;
+  for (const auto& c : run.selection->scores)
+    spdlog::info("calibrate: {:<30} {:2d} parameters, RMS {:.4f} px, held out {:.4f} px{}",
+                 calib::candidateName(c.candidate), c.parameters, c.train_rms_px,
+                 c.heldout_rms_px, &c == &run.selection->scores[run.selection->chosen] ? " <-" : "");
+  spdlog::info("calibrate: chose {}: {}", calib::candidateName(chosen), run.selection->reason);
+  for (std::size_t k = 0; k < run.selection->outliers.size(); ++k)
+    spdlog::warn(
+        "calibrate: {}: its corners are predicted to {:.3f} px when it is left out, clearly worse "
+        "than the other images' (look at it; --exclude {} leaves it out)",
+        run.selection->outliers[k], run.selection->outlier_rms_px[k], run.selection->outliers[k]);
+
   run.result = calib::calibrateCamera(run.detected, options);
   if (reference) {
     if (camera::width(*reference) != run.result.width ||
@@ -276,10 +321,16 @@ void setupCamera(CLI::App& app, const std::shared_ptr<CameraArgs>& args) {
   app.add_option("--square", args->square_m, "Square size in metres")->required();
   app.add_option("--model", args->model, "ocam | kb | pinhole")->capture_default_str();
   app.add_option("--out", args->out, "Output folder")->required();
-  app.add_option("--degree", args->degree, "OCam polynomial degree")->capture_default_str();
+  app.add_option("--degree", args->degree,
+                 "OCam polynomial degree (default: the one of 3-6 with the lowest held-out error)");
   app.add_option("--board-shape", args->board_shape,
-                 "rigid | shared (one shear and stretch of the printed board) | per-board")
+                 "auto (rigid or shared, by held-out error) | rigid | shared (one shear and "
+                 "stretch of the printed board) | per-board")
       ->capture_default_str();
+  app.add_option("--exclude", args->exclude,
+                 "Images to leave out (comma-separated names, e.g. a blurred view the report "
+                 "names)")
+      ->delimiter(',');
   app.add_option("--min-boards", args->min_boards, "Fewest usable boards")->capture_default_str();
   app.add_option("--huber", args->huber_px, "Robust loss scale (pixels; 0: none)")
       ->capture_default_str();

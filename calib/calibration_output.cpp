@@ -3,6 +3,9 @@
 #include <fmt/format.h>
 
 #include <cmath>
+#include <limits>
+
+#include <cmath>
 #include <fstream>
 
 #include "camera/calib_io.hpp"
@@ -125,6 +128,43 @@ nlohmann::json reportJson(const CalibrationRun& run) {
     j["per_image_rms_px"][r.boards[k].image] = r.per_image_rms_px[k];
     j["per_image_mean_px"][r.boards[k].image] = r.per_image_mean_px[k];
   }
+  if (run.selection) {
+    const ModelSelection& sel = *run.selection;
+    nlohmann::json& m = j["model_selection"];
+    m["method"] = sel.folds == static_cast<int>(sel.images.size())
+                      ? "leave-one-image-out"
+                      : fmt::format("{}-fold over images", sel.folds);
+    m["images"] = sel.images;
+    m["candidates"] = nlohmann::json::array();
+    for (const CandidateScore& c : sel.scores) {
+      nlohmann::json e = {{"name", candidateName(c.candidate)},
+                          {"model", modelKindName(c.candidate.model)},
+                          {"board_shape", boardShapeName(c.candidate.board_shape)},
+                          {"parameters", c.parameters}};
+      if (c.candidate.model == CameraModelKind::kOcam) e["degree"] = c.candidate.degree;
+      e["train_rms_px"] = std::isfinite(c.train_rms_px) ? nlohmann::json(c.train_rms_px) : nullptr;
+      e["heldout_rms_px"] =
+          std::isfinite(c.heldout_rms_px) ? nlohmann::json(c.heldout_rms_px) : nullptr;
+      e["heldout_failed"] = c.heldout_failed;
+      m["candidates"].push_back(e);
+    }
+    const CandidateScore& chosen = sel.scores[sel.chosen];
+    m["chosen"] = candidateName(chosen.candidate);
+    m["reason"] = sel.reason;
+    m["per_image_heldout_rms_px"] = nlohmann::json::object();
+    for (std::size_t k = 0; k < sel.images.size(); ++k) {
+      const double v = k < chosen.heldout_per_image_rms_px.size()
+                           ? chosen.heldout_per_image_rms_px[k]
+                           : std::numeric_limits<double>::quiet_NaN();
+      m["per_image_heldout_rms_px"][sel.images[k]] =
+          std::isfinite(v) ? nlohmann::json(v) : nullptr;
+    }
+    m["outliers"] = nlohmann::json::array();
+    for (std::size_t k = 0; k < sel.outliers.size(); ++k)
+      m["outliers"].push_back(
+          {{"image", sel.outliers[k]}, {"heldout_rms_px", sel.outlier_rms_px[k]}});
+  }
+  j["images_excluded"] = run.excluded;
   j["images_rejected"] = nlohmann::json::array();
   for (const auto* list : {&run.not_detected, &r.rejected})
     for (const RejectedImage& rej : *list)

@@ -14,6 +14,7 @@
 #include "calib/board.hpp"
 #include "calib/camera_calibration.hpp"
 #include "calib/model_comparison.hpp"
+#include "calib/model_selection.hpp"
 
 namespace ovo::calib {
 
@@ -29,6 +30,8 @@ struct CalibrationRun {
   std::vector<RejectedImage> not_detected;         // images without a usable board
   std::optional<BearingComparison> reference;      // against --reference, when given
   std::string reference_file;
+  std::optional<ModelSelection> selection;  // the candidates scored and the one chosen
+  std::vector<std::string> excluded;        // boards left out by the user (--exclude)
 };
 
 /// The files of the calibration itself, by model (names relative to the output folder).

@@ -132,6 +132,16 @@ std::string residualSvg(const CalibrationRun& run) {
   return svg + "</svg>\n";
 }
 
+// The chosen model's held-out RMS of an image, as text ("-" when not cross-validated).
+std::string heldOutText(const CalibrationRun& run, const std::string& image) {
+  if (!run.selection) return "-";
+  const ModelSelection& sel = *run.selection;
+  const auto& per = sel.scores[sel.chosen].heldout_per_image_rms_px;
+  for (std::size_t k = 0; k < sel.images.size() && k < per.size(); ++k)
+    if (sel.images[k] == image && std::isfinite(per[k])) return fmt::format("{:.3f}", per[k]);
+  return "-";
+}
+
 std::string perImageSvg(const CalibrationRun& run) {
   const CalibrationResult& r = run.result;
   const int n = static_cast<int>(r.boards.size());
@@ -144,7 +154,7 @@ std::string perImageSvg(const CalibrationRun& run) {
   std::string svg = fmt::format(
       "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{}\" height=\"{}\" viewBox=\"0 0 {} "
       "{}\"><text x=\"8\" y=\"16\" font-size=\"13\">Reprojection RMS per image [px] (line: "
-      "overall {:.3f} px)</text>\n",
+      "overall {:.3f} px; dots: held out)</text>\n",
       w, h, w, h, r.rms_px);
   for (int t = 0; t <= 4; ++t) {
     const double v = top_value * t / 4.0;
@@ -167,6 +177,16 @@ std::string perImageSvg(const CalibrationRun& run) {
       "<line x1=\"{}\" y1=\"{:.1f}\" x2=\"{}\" y2=\"{:.1f}\" stroke=\"#222\" "
       "stroke-dasharray=\"5,3\"/>\n",
       left, y(r.rms_px), left + n * bar, y(r.rms_px));
+  // The chosen model's held-out error of each image (a dot; above the plot: clipped to its top).
+  for (int k = 0; k < n; ++k) {
+    const std::string text = heldOutText(run, r.boards[k].image);
+    if (text == "-") continue;
+    const double v = std::min(std::stod(text), top_value);
+    svg += fmt::format(
+        "<circle cx=\"{:.1f}\" cy=\"{:.1f}\" r=\"3.5\" fill=\"#222\"><title>{} held out: {} "
+        "px</title></circle>\n",
+        left + k * bar + bar / 2.0, y(v), xmlEscape(r.boards[k].image), text);
+  }
   return svg + "</svg>\n";
 }
 
@@ -196,13 +216,41 @@ std::string reportHtml(const CalibrationRun& run) {
   html += "</div>\n";
   html += "<h2>Coverage and residuals</h2><div class=\"plots\">\n" + coverageSvg(run) +
           residualSvg(run) + "</div>\n";
+  if (run.selection) {
+    const ModelSelection& sel = *run.selection;
+    html += "<h2>Model selection</h2>\n<p class=\"note\">Chosen: " +
+            xmlEscape(candidateName(sel.scores[sel.chosen].candidate)) + ", " +
+            xmlEscape(sel.reason) + ".</p>\n";
+    html +=
+        "<table><tr><th>candidate</th><th>parameters</th><th>training RMS [px]</th>"
+        "<th>held-out RMS [px]</th></tr>\n";
+    for (std::size_t k = 0; k < sel.scores.size(); ++k) {
+      const CandidateScore& c = sel.scores[k];
+      html += fmt::format(
+          "<tr><td>{}{}</td><td class=\"n\">{}</td><td class=\"n\">{:.4f}</td><td "
+          "class=\"n\">{:.4f}</td></tr>\n",
+          xmlEscape(candidateName(c.candidate)), k == sel.chosen ? " (chosen)" : "", c.parameters,
+          c.train_rms_px, c.heldout_rms_px);
+    }
+    html += "</table>\n";
+    for (std::size_t k = 0; k < sel.outliers.size(); ++k)
+      html += fmt::format(
+          "<p class=\"note\"><b>{}</b>: its corners are predicted to {:.3f} px when left out, "
+          "clearly worse than the other images'; look at it, and leave it out with --exclude "
+          "if its board is blurred, bent or misdetected.</p>\n",
+          xmlEscape(sel.outliers[k]), sel.outlier_rms_px[k]);
+  }
   html += "<h2>Per image</h2><div class=\"plots\">\n" + perImageSvg(run) + "</div>\n";
-  html += "<table><tr><th>image</th><th>RMS [px]</th><th>mean [px]</th><th>found by</th></tr>\n";
+  html +=
+      "<table><tr><th>image</th><th>RMS [px]</th><th>mean [px]</th><th>held-out RMS "
+      "[px]</th><th>found by</th></tr>\n";
   for (std::size_t k = 0; k < r.boards.size(); ++k) {
     const auto it = run.detected_by.find(r.boards[k].image);
     html += fmt::format(
-        "<tr><td>{}</td><td class=\"n\">{:.3f}</td><td class=\"n\">{:.3f}</td><td>{}</td></tr>\n",
+        "<tr><td>{}</td><td class=\"n\">{:.3f}</td><td class=\"n\">{:.3f}</td><td "
+        "class=\"n\">{}</td><td>{}</td></tr>\n",
         xmlEscape(r.boards[k].image), r.per_image_rms_px[k], r.per_image_mean_px[k],
+        heldOutText(run, r.boards[k].image),
         xmlEscape(it == run.detected_by.end() ? run.source : it->second));
   }
   html += "</table>\n<h2>Rejected images</h2>\n";

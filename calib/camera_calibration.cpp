@@ -11,10 +11,14 @@
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numeric>
+#include <optional>
 
 #include "calib/projection.hpp"
 #include "common/error.hpp"
+
+#include <tbb/parallel_for.h>
 
 namespace ovo::calib {
 namespace {
@@ -473,8 +477,11 @@ std::string modelKindName(CameraModelKind kind) {
   return "?";
 }
 
-CalibrationResult calibrateCamera(const std::vector<BoardObservation>& input,
-                                  const CalibrationOptions& options) {
+namespace {
+
+// calibrateCamera, also giving the refined model's state (for fits with it fixed).
+CalibrationResult calibrate(const std::vector<BoardObservation>& input,
+                            const CalibrationOptions& options, ModelState* model_out) {
   if (static_cast<int>(input.size()) < options.min_boards)
     fail(
         "calibration: {} board{} found, at least {} are needed (boards seen from different "
@@ -597,7 +604,146 @@ CalibrationResult calibrateCamera(const std::vector<BoardObservation>& input,
   for (const auto& p : poses) result.poses.push_back(fromState(p));
   result.boards = std::move(boards);
   result.camera = cameraOf(model, width, height);
+  if (model_out) *model_out = model;
   return result;
+}
+
+// A board's pose under a fixed camera, in closed form: the corners' bearings b_i are parallel to
+// H (X_i, Y_i, 1) with H = [r1 r2 t] up to scale (the board plane's homography onto bearings);
+// H from b_i x H x_i = 0 by SVD, then the nearest rotation. nullopt when the corners do not
+// unproject or the board is not in front.
+std::optional<PoseState> poseFromBearings(const camera::Camera& cam, const BoardObservation& b,
+                                          const double* shape) {
+  Eigen::MatrixXd A(2 * b.size(), 9);
+  int rows = 0;
+  std::vector<Vec3> bearings;
+  std::vector<Vec3> points;
+  for (std::size_t i = 0; i < b.size(); ++i) {
+    const auto f = camera::unproject(cam, b.corners_px[i]);
+    if (!f) continue;
+    const Vec3 d = f->normalized();
+    const Vec3& P = b.points_B[i];
+    const Vec3 x(P.x() + shape[0] * P.y(), (1.0 + shape[1]) * P.y(), 1.0);
+    // Two rows of d x (H x) = 0: H's rows h1, h2, h3 with d = (dx, dy, dz).
+    A.row(rows).setZero();
+    A.row(rows).segment<3>(3) = -d.z() * x.transpose();
+    A.row(rows).segment<3>(6) = d.y() * x.transpose();
+    A.row(rows + 1).setZero();
+    A.row(rows + 1).segment<3>(0) = d.z() * x.transpose();
+    A.row(rows + 1).segment<3>(6) = -d.x() * x.transpose();
+    rows += 2;
+    bearings.push_back(d);
+    points.push_back(x);
+  }
+  if (rows < 12) return std::nullopt;
+  Eigen::JacobiSVD<Eigen::MatrixXd> svd(A.topRows(rows), Eigen::ComputeFullV);
+  const Eigen::VectorXd h = svd.matrixV().col(8);
+  Mat3 H;
+  H << h(0), h(1), h(2), h(3), h(4), h(5), h(6), h(7), h(8);
+  // The board in front: the bearings point at the points.
+  double front = 0.0;
+  for (std::size_t i = 0; i < bearings.size(); ++i) front += bearings[i].dot(H * points[i]);
+  if (front < 0.0) H = -H;
+  const double scale = 2.0 / (H.col(0).norm() + H.col(1).norm());
+  if (!std::isfinite(scale)) return std::nullopt;
+  Mat3 R;
+  R.col(0) = scale * H.col(0);
+  R.col(1) = scale * H.col(1);
+  R.col(2) = R.col(0).cross(R.col(1));
+  Eigen::JacobiSVD<Mat3> r_svd(R, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  R = r_svd.matrixU() * r_svd.matrixV().transpose();
+  if (R.determinant() < 0.0) return std::nullopt;
+  BoardPose pose;
+  pose.R_C_B = R;
+  pose.t_C_B = scale * H.col(2);
+  PoseState state = toState(pose);
+  std::copy(shape, shape + 2, state.shape);
+  return state;
+}
+
+}  // namespace
+
+CalibrationResult calibrateCamera(const std::vector<BoardObservation>& input,
+                                  const CalibrationOptions& options) {
+  return calibrate(input, options, nullptr);
+}
+
+HeldOutError crossValidate(const std::vector<BoardObservation>& boards,
+                           const CalibrationOptions& options, int folds) {
+  checkSizes(boards);
+  const int n = static_cast<int>(boards.size());
+  folds = std::clamp(folds, 2, std::max(2, n));
+  HeldOutError out;
+  out.folds = folds;
+  out.per_image_rms_px.assign(boards.size(), std::numeric_limits<double>::quiet_NaN());
+  std::vector<double> sum2(boards.size(), 0.0);
+  std::vector<int> count(boards.size(), 0);
+  CalibrationOptions fold_options = options;
+  fold_options.threads = 1;  // the folds run in parallel
+  tbb::parallel_for(0, folds, [&](int f) {
+    std::vector<BoardObservation> train, test;
+    std::vector<std::size_t> test_index;
+    for (int j = 0; j < n; ++j) {
+      if (j % folds == f) {
+        test.push_back(boards[j]);
+        test_index.push_back(j);
+      } else {
+        train.push_back(boards[j]);
+      }
+    }
+    if (static_cast<int>(train.size()) < options.min_boards) return;
+    ModelState model;
+    CalibrationResult fit;
+    try {
+      fit = calibrate(train, fold_options, &model);
+    } catch (const Error&) {
+      return;  // this fold's boards stay NaN (failed)
+    }
+    // The held-out boards' poses with the intrinsics and the shared board shape fixed; a free
+    // shape per board (kPerBoard) is not a property of the camera and is held at zero.
+    const double zero_shape[2] = {0.0, 0.0};
+    const double* shape =
+        options.board_shape == BoardShape::kShared ? model.board_shape : zero_shape;
+    CalibrationOptions pose_options = fold_options;
+    pose_options.huber_px = 0.0;
+    pose_options.board_shape =
+        options.board_shape == BoardShape::kPerBoard ? BoardShape::kRigid : options.board_shape;
+    for (std::size_t k = 0; k < test.size(); ++k) {
+      const auto pose = poseFromBearings(*fit.camera, test[k], shape);
+      if (!pose) continue;
+      std::vector<BoardObservation> one{test[k]};
+      std::vector<PoseState> poses{*pose};
+      std::vector<std::vector<char>> usable{std::vector<char>(test[k].size(), 1)};
+      Problem pb{&one, &poses, usable};
+      ModelState fixed = model;
+      solve(fixed, pb, pose_options, true);
+      const Residuals res = residualsOf(fixed, pb);
+      double s2 = 0.0;
+      int c = 0;
+      for (const Vec2& r : res.per_corner[0])
+        if (r.allFinite()) {
+          s2 += r.squaredNorm();
+          ++c;
+        }
+      if (c == 0) continue;
+      const std::size_t j = test_index[k];
+      sum2[j] = s2;
+      count[j] = c;
+      out.per_image_rms_px[j] = std::sqrt(s2 / c);
+    }
+  });
+  double total2 = 0.0;
+  for (std::size_t j = 0; j < boards.size(); ++j) {
+    if (count[j] == 0) {
+      ++out.failed;
+      continue;
+    }
+    total2 += sum2[j];
+    out.corners += count[j];
+  }
+  out.rms_px = out.corners > 0 ? std::sqrt(total2 / out.corners)
+                               : std::numeric_limits<double>::quiet_NaN();
+  return out;
 }
 
 FixedModelFit fitPosesWithFixedOcam(const std::vector<BoardObservation>& boards,

@@ -70,6 +70,21 @@ struct CalibrationResult {
 CalibrationResult calibrateCamera(const std::vector<BoardObservation>& boards,
                                   const CalibrationOptions& options);
 
+/// The reprojection error of a calibration on boards it was not fitted to (k-fold cross-
+/// validation over images): board j goes to fold j % folds; each fold's boards are left out of a
+/// calibration with `options` (its own rejections included), then each of them gets its pose
+/// fitted with that calibration's intrinsics and shared board shape fixed (no robust loss), and
+/// its corners' errors are its held-out error. folds = the number of boards is leave-one-image-out.
+struct HeldOutError {
+  int folds = 0;
+  std::vector<double> per_image_rms_px;  // per input board; NaN where it could not be fitted
+  double rms_px = 0.0;                   // over every held-out corner
+  int corners = 0;
+  int failed = 0;  // boards without a held-out error (their fold's calibration failed)
+};
+HeldOutError crossValidate(const std::vector<BoardObservation>& boards,
+                           const CalibrationOptions& options, int folds);
+
 /// Reprojection RMS (pixels) of a fixed calibrated model on other boards, poses fitted per board
 /// (e.g. the peer tool's intrinsics on its own corners). nullopt when a pose does not converge.
 struct FixedModelFit {
