@@ -18,6 +18,22 @@ constexpr double kLeftPx = 64, kRightPx = 16, kTopPx = 34, kBottomPx = 46;
 
 bool finite2(double x, double y) { return std::isfinite(x) && std::isfinite(y); }
 
+// A standalone SVG document's opening (white background, a title), closed by "</svg>\n".
+std::string documentHeader(int width, int height, const std::string& title) {
+  return "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n" +
+         fmt::format(
+             "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{0}\" height=\"{1}\" "
+             "viewBox=\"0 0 {0} {1}\" font-family=\"DejaVu Sans, Arial, sans-serif\">\n"
+             "<rect x=\"0\" y=\"0\" width=\"{0}\" height=\"{1}\" fill=\"#ffffff\"/>\n"
+             "<text x=\"12\" y=\"20\" font-size=\"15\" font-weight=\"bold\">{2}</text>\n",
+             width, height, xmlEscape(title));
+}
+
+// A plot (an <svg> element) nested in a document at (x, y): its x/y attributes place it.
+std::string placed(const std::string& svg, int x, int y) {
+  return fmt::format("<svg x=\"{}\" y=\"{}\"", x, y) + svg.substr(4);
+}
+
 // Shortest round-trip text for a tick value (0.30000000000000004 -> "0.3").
 std::string tickLabel(double v, double step) {
   if (std::abs(v) < 1e-9 * std::max(1.0, std::abs(step))) v = 0.0;
@@ -381,21 +397,10 @@ std::string svgComparisonDocument(const TrajectoryComparison& c, const std::stri
   o.y_label = "error [deg]";
   o.y_include_zero = false;
   const std::string yaw = svgLinePlot({{"", c.t_s, c.yaw_err_deg, "#7570b3"}}, o);
-  auto place = [](const std::string& svg, int x, int y) {
-    // A nested <svg> element is positioned by its x/y attributes.
-    return fmt::format("<svg x=\"{}\" y=\"{}\"", x, y) + svg.substr(4);
-  };
-  const int W = kTop + kErrW, H = kTop + 30;
-  std::string s = "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n";
-  s += fmt::format(
-      "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{0}\" height=\"{1}\" "
-      "viewBox=\"0 0 {0} {1}\" font-family=\"DejaVu Sans, Arial, sans-serif\">\n"
-      "<rect x=\"0\" y=\"0\" width=\"{0}\" height=\"{1}\" fill=\"#ffffff\"/>\n"
-      "<text x=\"12\" y=\"20\" font-size=\"15\" font-weight=\"bold\">{2}</text>\n",
-      W, H, xmlEscape(title));
-  s += place(top, 0, 30);
-  s += place(pos, kTop, 30);
-  s += place(yaw, kTop, 30 + kTop / 2);
+  std::string s = documentHeader(kTop + kErrW, kTop + 30, title);
+  s += placed(top, 0, 30);
+  s += placed(pos, kTop, 30);
+  s += placed(yaw, kTop, 30 + kTop / 2);
   s += "</svg>\n";
   return s;
 }
@@ -440,17 +445,9 @@ std::vector<std::string> svgDriftPlots(const std::vector<DriftSeries>& series, i
 std::string svgDriftDocument(const std::vector<DriftSeries>& series, const std::string& title) {
   constexpr int kW = 760, kH = 260;
   const std::vector<std::string> plots = svgDriftPlots(series, kW);
-  const int H = 30 + kH * static_cast<int>(plots.size());
-  std::string s = "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n";
-  s += fmt::format(
-      "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{0}\" height=\"{1}\" "
-      "viewBox=\"0 0 {0} {1}\" font-family=\"DejaVu Sans, Arial, sans-serif\">\n"
-      "<rect x=\"0\" y=\"0\" width=\"{0}\" height=\"{1}\" fill=\"#ffffff\"/>\n"
-      "<text x=\"12\" y=\"20\" font-size=\"15\" font-weight=\"bold\">{2}</text>\n",
-      kW, H, xmlEscape(title));
+  std::string s = documentHeader(kW, 30 + kH * static_cast<int>(plots.size()), title);
   for (std::size_t k = 0; k < plots.size(); ++k)
-    s += fmt::format("<svg x=\"0\" y=\"{}\"", 30 + kH * static_cast<int>(k)) +
-         plots[k].substr(4);
+    s += placed(plots[k], 0, 30 + kH * static_cast<int>(k));
   s += "</svg>\n";
   return s;
 }

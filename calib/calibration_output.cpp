@@ -90,17 +90,6 @@ nlohmann::json cameraJson(const camera::Camera& cam) {
   return j;
 }
 
-std::string boardShapeName(BoardShape s) {
-  switch (s) {
-    case BoardShape::kRigid:
-      return "rigid";
-    case BoardShape::kShared:
-      return "shared";
-    case BoardShape::kPerBoard:
-      return "per-board";
-  }
-  return "?";
-}
 
 }  // namespace
 

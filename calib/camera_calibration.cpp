@@ -465,6 +465,18 @@ BoardShape parseBoardShape(const std::string& name, const std::string& option) {
   fail("{}: expected rigid, shared or per-board, got '{}'", option, name);
 }
 
+std::string boardShapeName(BoardShape shape) {
+  switch (shape) {
+    case BoardShape::kRigid:
+      return "rigid";
+    case BoardShape::kShared:
+      return "shared";
+    case BoardShape::kPerBoard:
+      return "per-board";
+  }
+  return "?";
+}
+
 std::string modelKindName(CameraModelKind kind) {
   switch (kind) {
     case CameraModelKind::kOcam:

@@ -31,6 +31,8 @@ enum class BoardShape {
 };
 /// "rigid", "shared" or "per-board" (throws ovo::Error naming `option` otherwise).
 BoardShape parseBoardShape(const std::string& name, const std::string& option = "--board-shape");
+/// "rigid", "shared" or "per-board".
+std::string boardShapeName(BoardShape shape);
 
 struct CalibrationOptions {
   CameraModelKind model = CameraModelKind::kOcam;

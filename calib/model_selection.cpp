@@ -12,18 +12,6 @@
 namespace ovo::calib {
 namespace {
 
-std::string shapeName(BoardShape s) {
-  switch (s) {
-    case BoardShape::kRigid:
-      return "rigid";
-    case BoardShape::kShared:
-      return "shared";
-    case BoardShape::kPerBoard:
-      return "per-board";
-  }
-  return "?";
-}
-
 double medianOf(std::vector<double> v) {
   v.erase(std::remove_if(v.begin(), v.end(), [](double x) { return !std::isfinite(x); }),
           v.end());
@@ -36,7 +24,7 @@ double medianOf(std::vector<double> v) {
 }  // namespace
 
 std::string candidateName(const ModelCandidate& c) {
-  const std::string board = shapeName(c.board_shape) + " board";
+  const std::string board = boardShapeName(c.board_shape) + " board";
   if (c.model == CameraModelKind::kOcam)
     return fmt::format("ocam degree {}, {}", c.degree, board);
   return modelKindName(c.model) + ", " + board;
