@@ -1,6 +1,6 @@
 // Simulator rendering speed: frames per second of the ray-cast vineyard (image noise and exposure
-// included), for the default fisheye scenario, its pinhole twin and vineyard_real (uneven ground,
-// wind, rolling shutter, auto-exposure).
+// included), for the default fisheye scenario, its pinhole twin, vineyard_real (uneven ground,
+// wind, rolling shutter, auto-exposure) and vineyard_block (the same over a whole block).
 #include <benchmark/benchmark.h>
 
 #include <memory>
@@ -33,5 +33,8 @@ BENCHMARK_CAPTURE(BM_Render, pinhole640x480, "vineyard_row_pinhole.yaml")
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
 BENCHMARK_CAPTURE(BM_Render, ocam640x480_real, "vineyard_real.yaml")
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
+BENCHMARK_CAPTURE(BM_Render, ocam640x480_block, "vineyard_block.yaml")
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
