@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 
 #include "apps/command.hpp"
+#include "apps/run_metrics.hpp"
 #include "apps/svg_plot.hpp"
 #include "common/error.hpp"
 #include "eval/metrics.hpp"
@@ -131,13 +132,7 @@ nlohmann::ordered_json evalOne(const EvalArgs& args, const io::TrajectoryFile& g
                   {"rot_deg", statsJson(rpe->rot, false)}};
   }
   // KITTI's segment errors at the lengths the field reports (only those the path reaches).
-  nlohmann::ordered_json segments = nlohmann::ordered_json::array();
-  for (const eval::SegmentError& s : eval::segmentErrors(pairs))
-    segments.push_back({{"length_m", s.length_m},
-                        {"count", s.count},
-                        {"trans_pct", s.trans_pct},
-                        {"rot_deg_per_100m", s.rot_deg_per_100m}});
-  out["segments"] = segments;
+  out["segments"] = segmentsJson<nlohmann::ordered_json>(eval::segmentErrors(pairs));
   *pairs_out = pairs;
   *by_index_out = by_index;
   return out;

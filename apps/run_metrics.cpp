@@ -191,13 +191,7 @@ nlohmann::json computeRunMetrics(const Trajectory& estimate, const Trajectory& g
       }
       if (!dir_deg.empty()) m["rpe_trans_dir_deg_median"] = percentile(dir_deg, 50);
       if (const auto drift = eval::kittiDrift(a)) m["drift_pct"] = drift->trans_pct;
-      nlohmann::json segments = nlohmann::json::array();
-      for (const eval::SegmentError& s : eval::segmentErrors(a))
-        segments.push_back({{"length_m", s.length_m},
-                            {"count", s.count},
-                            {"trans_pct", s.trans_pct},
-                            {"rot_deg_per_100m", s.rot_deg_per_100m}});
-      m["segments"] = segments;
+      m["segments"] = segmentsJson<nlohmann::json>(eval::segmentErrors(a));
       if (const auto origin = eval::alignFirstPose(a.ref, a.est)) {
         if (const auto yaw = eval::finalYawErrorDeg(a, *origin))
           m["final_yaw_err_deg"] = std::abs(*yaw);

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "estimator/estimator.hpp"
+#include "eval/metrics.hpp"
 
 namespace ovo::app {
 
@@ -47,6 +48,20 @@ nlohmann::json computeRunMetrics(const Trajectory& estimate, const Trajectory& g
 /// last / first of each. A run that costs the same at its end as at its start has ratios near 1.
 /// Null for runs of fewer than 200 frames.
 nlohmann::json costTrend(const RunTiming& timing);
+
+/// KITTI's segment errors as JSON (metrics.json's and `ovo eval`'s `segments`): one object a
+/// length with length_m, count, trans_pct and rot_deg_per_100m. Json: nlohmann::json or
+/// nlohmann::ordered_json.
+template <typename Json>
+Json segmentsJson(const std::vector<eval::SegmentError>& segments) {
+  Json out = Json::array();
+  for (const eval::SegmentError& s : segments)
+    out.push_back({{"length_m", s.length_m},
+                   {"count", s.count},
+                   {"trans_pct", s.trans_pct},
+                   {"rot_deg_per_100m", s.rot_deg_per_100m}});
+  return out;
+}
 
 /// Percentile (0..100) of a sample, linear interpolation; 0 for an empty sample.
 double percentile(std::vector<double> values, double pct);
