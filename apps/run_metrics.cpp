@@ -73,9 +73,10 @@ nlohmann::json costTrend(const RunTiming& timing) {
   // (online runs drop some).
   const double frames_in = timing.resources.empty() ? 0.0 : timing.resources.back().frames;
   const auto sampleFrame = [&](std::size_t k) {
-    return frames_in > 0.0 ? static_cast<std::size_t>(timing.resources[k].frames / frames_in *
-                                                      static_cast<double>(n))
-                           : n;
+    if (!(frames_in > 0.0)) return n;  // nowhere
+    const auto f = static_cast<std::size_t>(timing.resources[k].frames / frames_in *
+                                            static_cast<double>(n));
+    return std::min(f, n - 1);
   };
   nlohmann::json out;
   double values[2][4];
@@ -101,8 +102,10 @@ nlohmann::json costTrend(const RunTiming& timing) {
     if (first < last && timing.resources[last].frames > timing.resources[first].frames)
       v[2] = 1e3 * (timing.resources[last].cpu_s - timing.resources[first].cpu_s) /
              (timing.resources[last].frames - timing.resources[first].frames);
-    v[3] = medianIn(timing.resources, lo, hi, sampleFrame,
-                    [&](std::size_t k) { return timing.resources[k].rss_mb; });
+    v[3] = medianIn(
+        timing.resources, lo, hi,
+        [&](std::size_t k) { return timing.resources[k].rss_mb >= 0.0 ? sampleFrame(k) : n; },
+        [&](std::size_t k) { return timing.resources[k].rss_mb; });
     out[r == 0 ? "first" : "last"] = {{"frames", {lo, hi}},
                                        {"frame_ms_median", finiteOrNull(v[0])},
                                        {"keyframe_ms_median", finiteOrNull(v[1])},

@@ -120,7 +120,8 @@ nlohmann::json reportJson(const CalibrationRun& run) {
   if (run.selection) {
     const ModelSelection& sel = *run.selection;
     nlohmann::json& m = j["model_selection"];
-    m["method"] = sel.folds == static_cast<int>(sel.images.size())
+    m["method"] = sel.folds == 0 ? "none (too few boards)"
+                  : sel.folds == static_cast<int>(sel.images.size())
                       ? "leave-one-image-out"
                       : fmt::format("{}-fold over images", sel.folds);
     m["images"] = sel.images;

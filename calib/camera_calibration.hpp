@@ -82,7 +82,8 @@ struct HeldOutError {
   std::vector<double> per_image_rms_px;  // per input board; NaN where it could not be fitted
   double rms_px = 0.0;                   // over every held-out corner
   int corners = 0;
-  int failed = 0;  // boards without a held-out error (their fold's calibration failed)
+  int failed = 0;  // boards without a held-out error (their fold's calibration failed, their
+                   // pose could not be found, or none of their corners projects)
 };
 HeldOutError crossValidate(const std::vector<BoardObservation>& boards,
                            const CalibrationOptions& options, int folds);

@@ -73,6 +73,30 @@ ModelSelection selectModel(const std::vector<BoardObservation>& boards,
   ModelSelection sel;
   for (const auto& b : common) sel.images.push_back(b.image);
   sel.folds = std::min(static_cast<int>(common.size()), options.max_folds);
+  // Too few boards to leave any out and still calibrate: no held-out error; the first
+  // candidate (the default) is taken, and said so.
+  const int n = static_cast<int>(common.size());
+  if (n - (n + sel.folds - 1) / sel.folds < base.min_boards) {
+    for (const ModelCandidate& c : candidates) {
+      CandidateScore score;
+      score.candidate = c;
+      score.parameters = parameterCount(c);
+      score.heldout_rms_px = std::numeric_limits<double>::quiet_NaN();
+      score.train_rms_px = c.model == candidates.front().model &&
+                                   c.degree == candidates.front().degree &&
+                                   c.board_shape == candidates.front().board_shape
+                               ? first.rms_px
+                               : std::numeric_limits<double>::quiet_NaN();
+      sel.scores.push_back(std::move(score));
+    }
+    sel.folds = 0;
+    sel.chosen = 0;
+    sel.reason = fmt::format(
+        "the default: {} boards are too few to leave any out and still calibrate from {} "
+        "(no held-out error)",
+        n, base.min_boards);
+    return sel;
+  }
 
   for (const ModelCandidate& c : candidates) {
     CandidateScore score;
@@ -118,7 +142,10 @@ ModelSelection selectModel(const std::vector<BoardObservation>& boards,
     const CandidateScore& s = sel.scores[k];
     if (!std::isfinite(s.heldout_rms_px) || s.heldout_failed > 0 || s.heldout_rms_px > limit)
       continue;
-    if (s.parameters < sel.scores[chosen].parameters) chosen = k;
+    const CandidateScore& c = sel.scores[chosen];
+    if (s.parameters < c.parameters ||
+        (s.parameters == c.parameters && s.heldout_rms_px < c.heldout_rms_px))
+      chosen = k;
   }
   sel.chosen = chosen;
   const CandidateScore& c = sel.scores[chosen];

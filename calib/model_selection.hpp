@@ -56,12 +56,15 @@ struct ModelSelection {
   std::vector<std::string> images;    // the common set of boards the candidates were scored on
   std::vector<std::string> outliers;  // boards of that set clearly worse than the others
   std::vector<double> outlier_rms_px;
-  int folds = 0;
+  int folds = 0;  // 0: not cross-validated (too few boards)
 };
 
 /// Scores every candidate (at least one) on `boards` with `base` for everything but the
 /// candidate's own choices. The common set is the boards the first candidate's calibration
-/// used. Throws ovo::Error when no candidate can be calibrated.
+/// used; with too few boards to leave some out and still have base.min_boards, nothing is
+/// cross-validated (folds 0, held-out errors NaN) and the first candidate is chosen. Throws
+/// ovo::Error when the first candidate cannot be calibrated or no candidate can be
+/// cross-validated.
 ModelSelection selectModel(const std::vector<BoardObservation>& boards,
                            const std::vector<ModelCandidate>& candidates,
                            const CalibrationOptions& base, const SelectionOptions& options = {});

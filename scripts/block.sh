@@ -13,8 +13,9 @@
 #                    [--set key=value ...]
 #
 # --sim-set changes the block (e.g. world.row_length_m=90; a WORK's datasets are made once, so
-# each --sim-set list needs a --work of its own); --set goes to every `ovo run`. "refine" is
-# the window with --refine full. Needs build/ovo (scripts/setup.sh build) and jq.
+# each --sim-set list needs a --work of its own); --set goes to every `ovo run` (a WORK's runs
+# are reused too: other --set values need another --work). "refine" is the window with
+# --refine full. Needs build/ovo (scripts/setup.sh build) and jq.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 ROOT=$(pwd)
@@ -77,10 +78,14 @@ run_one() {  # seed estimator
 }
 export -f run_one
 export WORK OVO
-export SETS_STR="${SETS[*]:-}"
+# The --set arguments one a line, read back as they were (spaces and wildcards kept).
+SETS_FILE=$WORK/runs/sets.txt
+printf '%s\n' "${SETS[@]+"${SETS[@]}"}" >"$SETS_FILE"
+export SETS_FILE
 jobs_list=()
 for seed in $SEEDS; do for e in $ESTIMATORS; do jobs_list+=("$seed $e"); done; done
-printf '%s\n' "${jobs_list[@]}" | xargs -P "$JOBS" -L 1 bash -c 'SETS=($SETS_STR); run_one "$0" "$1"'
+printf '%s\n' "${jobs_list[@]}" |
+  xargs -P "$JOBS" -L 1 bash -c 'mapfile -t SETS <"$SETS_FILE"; [ -n "${SETS[0]:-}" ] || SETS=(); run_one "$0" "$1"'
 
 printf '%-4s %-7s %7s %7s %7s %7s %7s | %-13s %-13s %-13s %-13s | %5s %5s %5s %5s\n' \
   seed est "pos%" "yaw" "ATEmm" "scale%" "lost" "10m %/deg" "50m" "100m" "200m" frame kf rss cpu
@@ -94,7 +99,7 @@ for seed in $SEEDS; do
       def f(x; n): if x == null then "-" else (x * pow(10; n) | round / pow(10; n) | tostring) end;
       def seg(L): (.segments // [] | map(select(.length_m == L)) | first) as $s
         | if $s == null then "-" else "\(f($s.trans_pct; 3))/\(f($s.rot_deg_per_100m; 2))" end;
-      [$seed, $e, f(.final_pos_err_pct; 3), f(.final_yaw_err_deg; 2), f(.ate_rmse_m * 1000; 1),
+      [$seed, $e, f(.final_pos_err_pct; 3), f(.final_yaw_err_deg; 2), f(if .ate_rmse_m == null then null else .ate_rmse_m * 1000 end; 1),
        f(.scale_err_pct; 2), (.tracking_losses | tostring), seg(10), seg(50), seg(100), seg(200),
        f(.timing.trend.ratio.frame_ms; 2), f(.timing.trend.ratio.keyframe_ms; 2),
        f(.timing.trend.ratio.rss; 2), f(.timing.trend.ratio.cpu_per_frame; 2)]

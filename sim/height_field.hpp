@@ -9,6 +9,7 @@
 #include <Eigen/Core>
 #include <array>
 #include <cmath>
+#include <limits>
 #include <cstdint>
 #include <vector>
 
@@ -16,18 +17,21 @@
 
 namespace ovo::sim {
 
-/// sin and cos of x together, within a few ulp of libm's for |x| up to ~1e6 (a wave's phase
-/// over a vineyard is at most a few thousand radians): x reduced by the nearest multiple of pi/2
-/// (pi/2 in three parts, Cody and Waite), then the minimax polynomials of fdlibm's kernels on
+/// sin and cos of x together, within a few ulp of libm's for |x| up to ~1e5 (a wave's phase
+/// over a vineyard is at most a few thousand radians; NaN for a non-finite x): x reduced by the
+/// nearest multiple of pi/2 (pi/2 in two parts, Cody and Waite), then the minimax polynomials of fdlibm's kernels on
 /// [-pi/4, pi/4]. Inline and branch-light: libm's general sincos (for any argument) dominated the
 /// render of rough ground, whose rays meet a sum of waves.
 inline void sinCos(double x, double* s, double* c) {
   constexpr double kTwoOverPi = 6.36619772367581382433e-01;
   constexpr double kPio2a = 1.57079632673412561417e+00;  // the first 33 bits of pi/2
-  constexpr double kPio2b = 6.07710050650619224932e-11;  // the next 33 bits
-  constexpr double kPio2c = 2.02226624871116645580e-21;  // the rest
+  constexpr double kPio2b = 6.07710050650619224932e-11;  // pi/2 - kPio2a (to 3.5e-27)
+  if (!std::isfinite(x)) {
+    *s = *c = std::numeric_limits<double>::quiet_NaN();
+    return;
+  }
   const double k = std::nearbyint(x * kTwoOverPi);
-  const double r = ((x - k * kPio2a) - k * kPio2b) - k * kPio2c;
+  const double r = (x - k * kPio2a) - k * kPio2b;
   const double z = r * r;
   const double sin_r =
       r + r * z *

@@ -82,5 +82,17 @@ TEST(ModelSelection, NamesABoardWhoseCornersAreClearlyWorse) {
   EXPECT_EQ(s.folds, 12);  // leave-one-image-out
 }
 
+TEST(ModelSelection, TooFewBoardsToLeaveOneOutTakeTheDefaultAndSaySo) {
+  const camera::Camera truth = test::romoviCamera();
+  const auto boards = test::syntheticBoards(truth, kLargeBoard, 3, 110.0, 0.1, 11);
+  ASSERT_EQ(boards.size(), 3u);  // min_boards: leaving one out leaves too few
+  const ModelSelection s = selectModel(boards, ocamDegrees(4, 6), {});
+  EXPECT_EQ(s.folds, 0);
+  EXPECT_EQ(s.chosen, 0u);
+  EXPECT_EQ(s.scores[0].candidate.degree, 4);
+  EXPECT_NE(s.reason.find("too few"), std::string::npos) << s.reason;
+  EXPECT_GT(s.scores[0].train_rms_px, 0.0);
+}
+
 }  // namespace
 }  // namespace ovo::calib
