@@ -78,7 +78,11 @@ TEST(OnlineRun, OfflineRunWritesAReportWithTheGroundTruthPlots) {
   const std::string report = slurp(dir / "run" / "report.html");
   std::size_t svgs = 0;
   for (auto p = report.find("<svg"); p != std::string::npos; p = report.find("<svg", p + 1)) ++svgs;
-  EXPECT_EQ(svgs, 4u);  // top view, position error, yaw error, timing (vo has no gyro bias)
+  // Top view, position error, yaw error; position, heading and scale error against the
+  // distance; timing, CPU per frame, memory (vo has no gyro bias).
+  EXPECT_EQ(svgs, 9u);
+  EXPECT_NE(report.find("Drift against the distance driven"), std::string::npos);
+  EXPECT_NE(report.find("Resident memory"), std::string::npos);
   EXPECT_NE(report.find("ground truth"), std::string::npos);
   EXPECT_EQ(report.find("latency"), std::string::npos);  // offline: no latency
 }
