@@ -40,22 +40,12 @@ while (($#)); do
     *) echo "block.sh: unknown argument '$1'" >&2; usage ;;
   esac
 done
-[[ $JOBS =~ ^[1-9][0-9]*$ ]] || { echo "block.sh: --jobs takes a whole number >= 1, got '$JOBS'" >&2; exit 2; }
 for s in $SEEDS; do
   [[ $s =~ ^[0-9]+$ ]] || { echo "block.sh: --seeds takes whole numbers, got '$s'" >&2; exit 2; }
 done
-for e in $ESTIMATORS; do
-  case "$e" in vo | kf | window | refine) ;; *)
-    echo "block.sh: --estimators takes vo, kf, window and refine, got '$e'" >&2; exit 2 ;;
-  esac
-done
-[ -x "$OVO" ] || { echo "block.sh: no $OVO: build first (scripts/setup.sh build)" >&2; exit 2; }
-if ! command -v jq >/dev/null; then
-  echo "block.sh: installing jq"
-  SUDO=""; [ "$(id -u)" -ne 0 ] && SUDO="sudo"
-  $SUDO apt-get install -y -qq jq >/dev/null || { $SUDO apt-get update -qq && $SUDO apt-get install -y -qq jq >/dev/null; }
-fi
-export POCL_CACHE_DIR=${POCL_CACHE_DIR:-${XDG_CACHE_HOME:-$HOME/.cache}/ovo-pocl}
+# shellcheck source=scripts/run_checks.sh
+source "$ROOT/scripts/run_checks.sh"
+check_run_options "$JOBS" "$ESTIMATORS" "$OVO"
 mkdir -p "$WORK/data" "$WORK/runs"
 
 for seed in $SEEDS; do
