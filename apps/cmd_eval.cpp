@@ -181,7 +181,7 @@ int runEval(const EvalArgs& args) {
     bool by_index = false;
     results.push_back(evalOne(args, gt, args.est[k], format, *align, *unit, &pairs, &by_index));
     if (!args.drift_plot.empty()) {
-      const auto curve = eval::driftAlongPath(pairs, 25.0, chooseTopView(pairs.ref).up);
+      const auto curve = eval::driftAlongPath(pairs, eval::kDriftScaleWindowM, chooseTopView(pairs.ref).up);
       if (!curve)
         fail("--drift-plot: {} cannot be aligned on its first pose ({} matched poses)",
              args.est[k], pairs.size());

@@ -221,7 +221,7 @@ std::string renderReportHtml(const ReportInputs& in) {
 
   if (!in.groundtruth.empty()) {
     const eval::Associated a = eval::associateByTime(in.groundtruth, in.estimate);
-    if (const auto drift = eval::driftAlongPath(a, 25.0, chooseTopView(a.ref).up)) {
+    if (const auto drift = eval::driftAlongPath(a, eval::kDriftScaleWindowM, chooseTopView(a.ref).up)) {
       h += "<h2>Drift against the distance driven</h2>\n<div class=\"plots\">\n";
       for (const std::string& plot : svgDriftPlots({{in.estimator, *drift, "#d95f02"}}))
         h += plot;

@@ -436,7 +436,7 @@ std::vector<std::string> svgDriftPlots(const std::vector<DriftSeries>& series, i
   o.title = "Heading error (aligned on the first pose)";
   o.y_label = "error [deg]";
   out.push_back(svgLinePlot(yaw, o));
-  o.title = "Scale error over the last 25 m";
+  o.title = fmt::format("Scale error over the last {:g} m", eval::kDriftScaleWindowM);
   o.y_label = "error [%]";
   out.push_back(svgLinePlot(scale, o));
   return out;

@@ -5,7 +5,6 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <set>
 
 #include "common/error.hpp"
 
@@ -77,16 +76,13 @@ ModelSelection selectModel(const std::vector<BoardObservation>& boards,
   // candidate (the default) is taken, and said so.
   const int n = static_cast<int>(common.size());
   if (n - (n + sel.folds - 1) / sel.folds < base.min_boards) {
-    for (const ModelCandidate& c : candidates) {
+    for (std::size_t k = 0; k < candidates.size(); ++k) {
       CandidateScore score;
-      score.candidate = c;
-      score.parameters = parameterCount(c);
+      score.candidate = candidates[k];
+      score.parameters = parameterCount(candidates[k]);
       score.heldout_rms_px = std::numeric_limits<double>::quiet_NaN();
-      score.train_rms_px = c.model == candidates.front().model &&
-                                   c.degree == candidates.front().degree &&
-                                   c.board_shape == candidates.front().board_shape
-                               ? first.rms_px
-                               : std::numeric_limits<double>::quiet_NaN();
+      // Only the first candidate was calibrated (it made the common set).
+      score.train_rms_px = k == 0 ? first.rms_px : std::numeric_limits<double>::quiet_NaN();
       sel.scores.push_back(std::move(score));
     }
     sel.folds = 0;

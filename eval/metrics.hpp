@@ -125,7 +125,9 @@ std::vector<SegmentError> segmentErrors(const Associated& pairs,
 struct DriftCurve {
   std::vector<double> distance_m, pos_err_m, yaw_err_deg, scale_err_pct;
 };
-std::optional<DriftCurve> driftAlongPath(const Associated& pairs, double scale_window_m = 25.0,
+inline constexpr double kDriftScaleWindowM = 25.0;  // driftAlongPath's default scale window
+std::optional<DriftCurve> driftAlongPath(const Associated& pairs,
+                                         double scale_window_m = kDriftScaleWindowM,
                                          const Vec3& up_W = Vec3::UnitZ());
 
 /// Heading error at the last pose about the world's `up_W` axis [deg], signed in (-180, 180]:
