@@ -70,6 +70,9 @@ FrontendOptions readFrontendOptions(const Config& cfg) {
       cfg.getIntInRange("frontend.track_refine_max_iterations", t.max_iterations, 1, 100);
   t.min_gradient =
       cfg.getInRange("frontend.track_refine_min_gradient", t.min_gradient, 0.0, 1000.0);
+  t.forward_backward_px =
+      cfg.getInRange("frontend.track_refine_forward_backward_px", t.forward_backward_px, 0.0, 10.0);
+  t.required = cfg.get<bool>("frontend.track_refine_required", t.required);
   return o;
 }
 
@@ -203,16 +206,32 @@ FrontendResult Frontend::process(Timestamp t_ns, const cv::Mat& grey,
     // Each step is independent: split over the cores (the estimator stage mostly waits), then
     // applied in match order.
     std::vector<std::optional<Vec2>> refined_px(matches.size());
+    std::vector<char> fb_failed(matches.size(), 0);
+    const double fb_px = options_.track_refine.forward_backward_px;
+    const bool require = options_.track_refine.required;
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, matches.size(), 256),
                       [&](const tbb::blocked_range<std::size_t>& range) {
                         for (std::size_t k = range.begin(); k != range.end(); ++k) {
                           const Match& m = matches[k];
                           refined_px[k] =
                               step_refiner_.refine(prev_grey_, prev_px_[m.prev], grey, px[m.cur]);
+                          if (fb_px > 0.0 && refined_px[k]) {
+                            const auto back = step_refiner_.refine(grey, *refined_px[k], prev_grey_,
+                                                                   prev_px_[m.prev]);
+                            if (!back || (*back - prev_px_[m.prev]).norm() > fb_px)
+                              fb_failed[k] = 1;
+                          }
+                          if (require && !refined_px[k]) fb_failed[k] = 1;
                         }
                       });
-    for (std::size_t k = 0; k < matches.size(); ++k)
-      if (refined_px[k]) px[matches[k].cur] = *refined_px[k];
+    for (std::size_t k = 0; k < matches.size(); ++k) {
+      if (fb_failed[k]) {
+        prev_index[matches[k].cur] = -1;  // the track ends; the feature starts a new one
+        px[matches[k].cur] = cur_.pixel(matches[k].cur, refined);
+      } else if (refined_px[k]) {
+        px[matches[k].cur] = *refined_px[k];
+      }
+    }
   }
   std::vector<Vec3> bearings(cur_.size());
   tbb::parallel_for(tbb::blocked_range<int>(0, cur_.size(), kPerFeatureGrain),

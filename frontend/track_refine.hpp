@@ -18,6 +18,11 @@
 // does not fix them. Nor is the ten-frame drift the steps' noise adding up: aligning each track's
 // patch from its first frame instead of the previous one (tried, not kept) hardly lowered it.
 //
+// Two gates on the step, off by default: a step that does not align ends its track (otherwise the
+// descriptor match's flow is kept), and a step aligned back from where it landed must return
+// within track_refine_forward_backward_px of its start. Together they end most tracks that
+// wander off their point, but not the bias of those next to depth edges (docs/tracks.md).
+//
 // The measurements behind these choices: docs/code-notes.md.
 #pragma once
 
@@ -37,6 +42,9 @@ struct TrackRefineOptions {
   double max_shift_px = 1.0;  // frontend.track_refine_max_shift_px: further from the start = fail
   double min_gradient = 2.0;  // frontend.track_refine_min_gradient: weighted RMS gradient
                               // (grey levels / px) along the weakest axis
+  double forward_backward_px = 0.0;  // frontend.track_refine_forward_backward_px: > 0 ends
+                                     // tracks whose step aligned back misses by more (0 = off)
+  bool required = false;  // frontend.track_refine_required: end tracks whose step fails to align
   bool operator==(const TrackRefineOptions&) const = default;
 };
 
