@@ -7,6 +7,7 @@
 #include <optional>
 
 #include "camera/camera.hpp"
+#include "common/so3.hpp"
 #include "sim/simulation.hpp"
 
 namespace ovo::sim {
@@ -66,12 +67,6 @@ bool onGround(const Simulation& sim, const Vec3& p_W) {
   return std::abs(p_W.z() - sim.world().groundHeight(p_W.x(), p_W.y())) < 1e-4;
 }
 
-Mat3 skew(const Vec3& v) {
-  Mat3 m;
-  m << 0, -v.z(), v.y(), v.z(), 0, -v.x(), -v.y(), v.x(), 0;
-  return m;
-}
-
 }  // namespace
 
 const char* trackKindName(TrackKind kind) {
@@ -106,6 +101,7 @@ void TrackTruth::addFrame(int k, const std::vector<TrackSighting>& sightings) {
   for (const TrackSighting& s : sightings) {
     auto [it, fresh] = tracks_.try_emplace(s.track_id);
     Track& tr = it->second;
+    tr.last_frame = frames_;
     if (fresh) {
       const SE3 T_W_C = cameraPoseAtRow(sim_, k, s.px.y());
       const double t_s = sim_.rowTime(k, std::clamp(static_cast<int>(std::lround(s.px.y())), 0,
@@ -162,7 +158,7 @@ void TrackTruth::addFrame(int k, const std::vector<TrackSighting>& sightings) {
     const Vec2 res = E * step;
     if (res.norm() < kMaxStepRad) {
       // A camera turned by the small rotation w sees b as b - w x b = b + [b]x w.
-      const Eigen::Matrix<double, 2, 3> J = E * skew(b_true);
+      const Eigen::Matrix<double, 2, 3> J = E * so3::hat(b_true);
       for (int set = 0; set < (age >= 2 ? 2 : 1); ++set) {
         for (int c : {kind, kTrackKinds}) {
           H[set][c] += J.transpose() * J;
@@ -195,6 +191,8 @@ void TrackTruth::addFrame(int k, const std::vector<TrackSighting>& sightings) {
     }
     samples_[kind][a].push_back(smp);
   }
+  // A track not seen in this frame has ended (a frontend does not resume tracks).
+  std::erase_if(tracks_, [&](const auto& entry) { return entry.second.last_frame != frames_; });
   for (int set = 0; set < 2; ++set) {
     for (int c = 0; c <= kTrackKinds; ++c) {
       if (n[set][c] < TrackTruthReport::kMinStepsForRotation) continue;

@@ -77,7 +77,8 @@ struct TrackTruthReport {
 class TrackTruth {
  public:
   explicit TrackTruth(const Simulation& sim);
-  /// Frame k's tracks (in any order; a track id seen for the first time starts a track).
+  /// Frame k's tracks (in any order; an id seen for the first time starts a track, and a track
+  /// missing from a frame has ended: its id starts a new one if it comes back).
   void addFrame(int k, const std::vector<TrackSighting>& sightings);
   TrackTruthReport report() const;
 
@@ -88,6 +89,7 @@ class TrackTruth {
     Vec3 prev_err_C = Vec3::Zero();  // previous sighting's bearing error (measured - true), C
     TrackKind kind = TrackKind::kGround;
     int sightings = 0;
+    int last_frame = 0;  // addFrame() count when last seen
     bool valid = false;
   };
   struct Sample {
