@@ -9,21 +9,11 @@
 
 namespace ovo::app {
 
-double percentile(std::vector<double> values, double pct) {
-  if (values.empty()) return 0.0;
-  std::sort(values.begin(), values.end());
-  const double pos = pct / 100.0 * static_cast<double>(values.size() - 1);
-  const auto lo = static_cast<std::size_t>(std::floor(pos));
-  const auto hi = std::min(lo + 1, values.size() - 1);
-  return values[lo] + (pos - static_cast<double>(lo)) * (values[hi] - values[lo]);
-}
-
 namespace {
 
 // The entries of v whose index is in [lo, hi) (by the index function), their median; NaN when none.
 template <typename T, typename Index, typename Value>
-double medianIn(const std::vector<T>& v, std::size_t lo, std::size_t hi, Index index,
-                Value value) {
+double medianIn(const std::vector<T>& v, std::size_t lo, std::size_t hi, Index index, Value value) {
   std::vector<double> in;
   for (std::size_t k = 0; k < v.size(); ++k) {
     const std::size_t i = index(k);
@@ -74,8 +64,8 @@ nlohmann::json costTrend(const RunTiming& timing) {
   const double frames_in = timing.resources.empty() ? 0.0 : timing.resources.back().frames;
   const auto sampleFrame = [&](std::size_t k) {
     if (!(frames_in > 0.0)) return n;  // nowhere
-    const auto f = static_cast<std::size_t>(timing.resources[k].frames / frames_in *
-                                            static_cast<double>(n));
+    const auto f =
+        static_cast<std::size_t>(timing.resources[k].frames / frames_in * static_cast<double>(n));
     return std::min(f, n - 1);
   };
   nlohmann::json out;
@@ -88,7 +78,9 @@ nlohmann::json costTrend(const RunTiming& timing) {
         [&](std::size_t k) { return timing.total_ms[k]; });
     v[1] = medianIn(
         timing.keyframe_ms, lo, hi,
-        [&](std::size_t k) { return k < timing.keyframe_frame.size() ? timing.keyframe_frame[k] : n; },
+        [&](std::size_t k) {
+          return k < timing.keyframe_frame.size() ? timing.keyframe_frame[k] : n;
+        },
         [&](std::size_t k) { return timing.keyframe_ms[k]; });
     // CPU per frame: from the first to the last sample inside the range.
     v[2] = std::numeric_limits<double>::quiet_NaN();
@@ -107,15 +99,15 @@ nlohmann::json costTrend(const RunTiming& timing) {
         [&](std::size_t k) { return timing.resources[k].rss_mb >= 0.0 ? sampleFrame(k) : n; },
         [&](std::size_t k) { return timing.resources[k].rss_mb; });
     out[r == 0 ? "first" : "last"] = {{"frames", {lo, hi}},
-                                       {"frame_ms_median", finiteOrNull(v[0])},
-                                       {"keyframe_ms_median", finiteOrNull(v[1])},
-                                       {"cpu_ms_per_frame", finiteOrNull(v[2])},
-                                       {"rss_mb_median", finiteOrNull(v[3])}};
+                                      {"frame_ms_median", finiteOrNull(v[0])},
+                                      {"keyframe_ms_median", finiteOrNull(v[1])},
+                                      {"cpu_ms_per_frame", finiteOrNull(v[2])},
+                                      {"rss_mb_median", finiteOrNull(v[3])}};
   }
   const char* names[4] = {"frame_ms", "keyframe_ms", "cpu_per_frame", "rss"};
   for (int i = 0; i < 4; ++i)
-    out["ratio"][names[i]] = values[0][i] > 0.0 ? finiteOrNull(values[1][i] / values[0][i])
-                                                 : nlohmann::json(nullptr);
+    out["ratio"][names[i]] =
+        values[0][i] > 0.0 ? finiteOrNull(values[1][i] / values[0][i]) : nlohmann::json(nullptr);
   return out;
 }
 

@@ -6,6 +6,7 @@
 #include <optional>
 #include <vector>
 
+#include "common/stats.hpp"  // percentile(), used with the metrics
 #include "estimator/estimator.hpp"
 #include "eval/metrics.hpp"
 
@@ -36,9 +37,9 @@ struct RunTiming {
 };
 
 /// Builds the metrics object (with `segments`, KITTI's segment errors at 10-200 m, and
-/// timing.trend, the cost at the start and at the end of the run). `groundtruth` may be empty. min_move_m: the translation-direction
-/// error of frame i is measured to the first later frame that truly moved at least this far
-/// (5 cm by default).
+/// timing.trend, the cost at the start and at the end of the run). `groundtruth` may be empty.
+/// min_move_m: the translation-direction error of frame i is measured to the first later frame that
+/// truly moved at least this far (5 cm by default).
 nlohmann::json computeRunMetrics(const Trajectory& estimate, const Trajectory& groundtruth,
                                  const estimator::EstimatorStats& stats, const RunTiming& timing,
                                  double min_move_m = 0.05);
@@ -62,8 +63,5 @@ Json segmentsJson(const std::vector<eval::SegmentError>& segments) {
                    {"rot_deg_per_100m", s.rot_deg_per_100m}});
   return out;
 }
-
-/// Percentile (0..100) of a sample, linear interpolation; 0 for an empty sample.
-double percentile(std::vector<double> values, double pct);
 
 }  // namespace ovo::app

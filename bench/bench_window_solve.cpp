@@ -23,6 +23,7 @@
 #include "apps/offline_runner.hpp"
 #include "apps/run_metrics.hpp"
 #include "common/config.hpp"
+#include "common/stats.hpp"
 #include "estimator/estimator.hpp"
 #include "io/dataset.hpp"
 
@@ -112,10 +113,10 @@ void BM_WindowSolve(benchmark::State& state) {
   }
   state.counters["keyframes"] = static_cast<double>(keyframe_ms.size()) / state.iterations();
   // As metrics.json computes them.
-  state.counters["keyframe_ms_median"] = app::percentile(keyframe_ms, 50);
-  state.counters["keyframe_ms_p90"] = app::percentile(keyframe_ms, 90);
-  state.counters["keyframe_ms_max"] = app::percentile(keyframe_ms, 100);
-  state.counters["frame_ms_median"] = app::percentile(other_ms, 50);
+  state.counters["keyframe_ms_median"] = percentile(keyframe_ms, 50);
+  state.counters["keyframe_ms_p90"] = percentile(keyframe_ms, 90);
+  state.counters["keyframe_ms_max"] = percentile(keyframe_ms, 100);
+  state.counters["frame_ms_median"] = percentile(other_ms, 50);
 }
 
 }  // namespace

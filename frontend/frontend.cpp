@@ -206,7 +206,7 @@ FrontendResult Frontend::process(Timestamp t_ns, const cv::Mat& grey,
     // Each step is independent: split over the cores (the estimator stage mostly waits), then
     // applied in match order.
     std::vector<std::optional<Vec2>> refined_px(matches.size());
-    std::vector<char> fb_failed(matches.size(), 0);
+    std::vector<char> ends_track(matches.size(), 0);
     const double fb_px = options_.track_refine.forward_backward_px;
     const bool require = options_.track_refine.required;
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, matches.size(), 256),
@@ -219,13 +219,13 @@ FrontendResult Frontend::process(Timestamp t_ns, const cv::Mat& grey,
                             const auto back = step_refiner_.refine(grey, *refined_px[k], prev_grey_,
                                                                    prev_px_[m.prev]);
                             if (!back || (*back - prev_px_[m.prev]).norm() > fb_px)
-                              fb_failed[k] = 1;
+                              ends_track[k] = 1;
                           }
-                          if (require && !refined_px[k]) fb_failed[k] = 1;
+                          if (require && !refined_px[k]) ends_track[k] = 1;
                         }
                       });
     for (std::size_t k = 0; k < matches.size(); ++k) {
-      if (fb_failed[k]) {
+      if (ends_track[k]) {
         prev_index[matches[k].cur] = -1;  // the track ends; the feature starts a new one
         px[matches[k].cur] = cur_.pixel(matches[k].cur, refined);
       } else if (refined_px[k]) {

@@ -240,6 +240,21 @@ ovo::Trajectory Simulation::groundTruth() const {
   return gt;
 }
 
+std::optional<Vec3> Simulation::castRay(const SE3& T_W_C, const Vec3& d_C, double t_s,
+                                        double max_range_m) const {
+  const Vec3 d_W = T_W_C.linear() * d_C.normalized();
+  const auto t = world_->firstOpaqueHit(T_W_C.translation(), d_W, max_range_m, t_s);
+  if (!t) return std::nullopt;
+  return Vec3(T_W_C.translation() + *t * d_W);
+}
+
+std::optional<Vec3> Simulation::castPixel(const SE3& T_W_C, const Vec2& px, double t_s,
+                                          double max_range_m) const {
+  const auto b = camera::unproject(camera_, px);
+  if (!b) return std::nullopt;
+  return castRay(T_W_C, *b, t_s, max_range_m);
+}
+
 double Simulation::cameraHeightM() const {
   const Vec3 p_W = (trajectory_.T_W_B(0.0) * T_B_C_).translation();
   if (!world_->heightField())

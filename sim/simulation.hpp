@@ -8,6 +8,7 @@
 
 #include <memory>
 #include <opencv2/core.hpp>
+#include <optional>
 #include <vector>
 
 #include "camera/camera.hpp"
@@ -72,6 +73,13 @@ class Simulation {
   ovo::Trajectory groundTruth() const;
   /// Camera centre's height above the terrain at the start (m).
   double cameraHeightM() const;
+  /// Where the camera-frame ray d_C of a camera at T_W_C meets the first opaque surface at time
+  /// t_s (VineyardWorld::firstOpaqueHit); nullopt when nothing is nearer than max_range_m.
+  std::optional<Vec3> castRay(const SE3& T_W_C, const Vec3& d_C, double t_s,
+                              double max_range_m) const;
+  /// The same for the ray through pixel px; nullopt too when px is off the camera model.
+  std::optional<Vec3> castPixel(const SE3& T_W_C, const Vec2& px, double t_s,
+                                double max_range_m) const;
 
  private:
   void build();

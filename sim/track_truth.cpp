@@ -8,6 +8,7 @@
 
 #include "camera/camera.hpp"
 #include "common/so3.hpp"
+#include "common/stats.hpp"
 #include "sim/simulation.hpp"
 
 namespace ovo::sim {
@@ -19,25 +20,15 @@ constexpr double kFarM = 10.0;                  // beyond: far away
 constexpr double kMaxRangeM = 60.0;             // rays that meet nothing nearer see the sky
 constexpr double kMaxStepRad = 0.01;            // steps further off are mismatches, not bias
 
-double median(std::vector<double> v) {
-  if (v.empty()) return 0.0;
-  const auto mid = v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2);
-  std::nth_element(v.begin(), mid, v.end());
-  return *mid;
-}
-
-double percentile(std::vector<double> v, double q) {
-  if (v.empty()) return 0.0;
-  const auto at = v.begin() + static_cast<std::ptrdiff_t>(q * static_cast<double>(v.size() - 1));
-  std::nth_element(v.begin(), at, v.end());
-  return *at;
+// The time (s) at which the image row nearest to v of frame k was read.
+double rowTimeAt(const Simulation& sim, int k, double v) {
+  const int rows = camera::height(sim.camera());
+  return sim.rowTime(k, std::clamp(static_cast<int>(std::lround(v)), 0, std::max(0, rows - 1)));
 }
 
 // The true camera pose when row v of frame k was read.
 SE3 cameraPoseAtRow(const Simulation& sim, int k, double v) {
-  const int rows = camera::height(sim.camera());
-  const int row = std::clamp(static_cast<int>(std::lround(v)), 0, std::max(0, rows - 1));
-  return sim.trajectory().T_W_B(sim.rowTime(k, row)) * sim.T_B_C();
+  return sim.trajectory().T_W_B(rowTimeAt(sim, k, v)) * sim.T_B_C();
 }
 
 // Where p_W appears in frame k: projected from the pose at its own row's time (two passes).
@@ -52,19 +43,6 @@ std::optional<Vec2> projectAtRow(const Simulation& sim, int k, const Vec3& p_W, 
   px = camera::project(sim.camera(), T.inverse() * p_W);
   if (px && T_W_C) *T_W_C = T;
   return px;
-}
-
-std::optional<Vec3> castPixel(const Simulation& sim, const SE3& T_W_C, double t_s, const Vec2& px) {
-  const auto b = camera::unproject(sim.camera(), px);
-  if (!b) return std::nullopt;
-  const Vec3 d_W = T_W_C.linear() * b->normalized();
-  const auto t = sim.world().firstOpaqueHit(T_W_C.translation(), d_W, kMaxRangeM, t_s);
-  if (!t) return std::nullopt;
-  return Vec3(T_W_C.translation() + *t * d_W);
-}
-
-bool onGround(const Simulation& sim, const Vec3& p_W) {
-  return std::abs(p_W.z() - sim.world().groundHeight(p_W.x(), p_W.y())) < 1e-4;
 }
 
 }  // namespace
@@ -103,25 +81,25 @@ void TrackTruth::addFrame(int k, const std::vector<TrackSighting>& sightings) {
     Track& tr = it->second;
     tr.last_frame = frames_;
     if (fresh) {
-      const SE3 T_W_C = cameraPoseAtRow(sim_, k, s.px.y());
-      const double t_s = sim_.rowTime(k, std::clamp(static_cast<int>(std::lround(s.px.y())), 0,
-                                                    camera::height(sim_.camera()) - 1));
-      const auto p_W = castPixel(sim_, T_W_C, t_s, s.px);
+      const double t_s = rowTimeAt(sim_, k, s.px.y());
+      const SE3 T_W_C = sim_.trajectory().T_W_B(t_s) * sim_.T_B_C();
+      const auto p_W = sim_.castPixel(T_W_C, s.px, t_s, kMaxRangeM);
       if (!p_W) {
         ++unclassified_;
         continue;
       }
       const double depth = (*p_W - T_W_C.translation()).norm();
-      const bool ground = onGround(sim_, *p_W);
+      const bool ground = sim_.world().onGround(*p_W);
       // A depth edge: around the pixel, a ray sees the sky, a surface of the other kind (ground
       // against the rest), or inverse depths that bend (a plane's are linear across the image,
       // so a slanted ground far ahead is no edge).
       bool edge = false;
       for (int a = 0; a < 4 && !edge; ++a) {
         const Vec2 d = kEdgeRadiusPx * Vec2(std::cos(a * M_PI / 4.0), std::sin(a * M_PI / 4.0));
-        const auto p = castPixel(sim_, T_W_C, t_s, s.px + d);
-        const auto q = castPixel(sim_, T_W_C, t_s, s.px - d);
-        edge = !p || !q || onGround(sim_, *p) != ground || onGround(sim_, *q) != ground ||
+        const auto p = sim_.castPixel(T_W_C, s.px + d, t_s, kMaxRangeM);
+        const auto q = sim_.castPixel(T_W_C, s.px - d, t_s, kMaxRangeM);
+        edge = !p || !q || sim_.world().onGround(*p) != ground ||
+               sim_.world().onGround(*q) != ground ||
                std::abs(1.0 / (*p - T_W_C.translation()).norm() +
                         1.0 / (*q - T_W_C.translation()).norm() - 2.0 / depth) >
                    kEdgeInverseDepthBend / depth;
@@ -231,10 +209,10 @@ TrackTruthReport TrackTruth::report() const {
         c.mean_along = sa / static_cast<double>(along.size());
         c.mean_across = sc / static_cast<double>(across.size());
       }
-      c.median_abs_along = median(along);
-      c.median_abs_across = median(across);
-      c.median_norm = median(norm);
-      c.p90_norm = percentile(norm, 0.9);
+      c.median_abs_along = upperMedian(along);
+      c.median_abs_across = upperMedian(across);
+      c.median_norm = upperMedian(norm);
+      c.p90_norm = percentile(norm, 90.0);
     };
     for (int k = 0; k < kTrackKinds; ++k) {
       fill(samples_[k][a], jumped_[k][a], r.cells[k][a]);

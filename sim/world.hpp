@@ -9,6 +9,7 @@
 #pragma once
 
 #include <algorithm>
+#include <cmath>
 #include <cstdint>
 #include <memory>
 #include <optional>
@@ -43,6 +44,10 @@ class VineyardWorld {
   /// Ground height z at (x, y): the plane z = grade * x + side_tilt * y plus the height field.
   double groundHeight(double x_W, double y_W) const {
     return field_ ? planeHeight(x_W, y_W) + field_->height(x_W, y_W) : planeHeight(x_W, y_W);
+  }
+  /// True when p_W lies on the ground (within 0.1 mm: a ray's hit on it, not a leaf or post).
+  bool onGround(const Vec3& p_W) const {
+    return std::abs(p_W.z() - groundHeight(p_W.x(), p_W.y())) < 1e-4;
   }
   /// The terrain plane's height at (x, y) (the ground without the height field).
   double planeHeight(double x_W, double y_W) const { return gx_ * x_W + gy_ * y_W; }

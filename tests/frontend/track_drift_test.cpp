@@ -18,6 +18,7 @@
 
 #include "camera/camera.hpp"
 #include "common/config.hpp"
+#include "common/stats.hpp"
 #include "frontend/frontend.hpp"
 #include "sim/scenario.hpp"
 #include "sim/simulation.hpp"
@@ -32,12 +33,6 @@ struct DriftStats {
   double far_off_fraction = 0.0;  // tracks more than 2 px off after ten frames
   int tracks_ten_frames = 0;
 };
-
-double median(std::vector<double> v) {
-  if (v.empty()) return 0.0;
-  std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
-  return v[v.size() / 2];
-}
 
 // The first 4.5 s of the row (the robot stands still for the first 0.5 s), rendered once.
 struct RenderedRow {
@@ -74,34 +69,17 @@ void forEachFrame(const RenderedRow& row, Frontend& frontend,
   }
 }
 
-// Where the camera-frame ray d_C first meets an opaque surface (the simulator's geometry).
-std::optional<Vec3> castRay(const sim::Simulation& sim, const SE3& T_W_C, double t_s,
-                            const Vec3& d_C) {
-  const Vec3 d_W = T_W_C.linear() * d_C;
-  const auto t = sim.world().firstOpaqueHit(T_W_C.translation(), d_W, 30.0, t_s);
-  if (!t) return std::nullopt;
-  return Vec3(T_W_C.translation() + *t * d_W);
-}
-
-bool onGround(const sim::Simulation& sim, const Vec3& p_W) {
-  return std::abs(p_W.z() - sim.world().groundHeight(p_W.x(), p_W.y())) < 1e-4;
-}
-
-// Where the pixel's ray first meets an opaque surface.
-std::optional<Vec3> castPixel(const sim::Simulation& sim, const SE3& T_W_C, double t_s,
-                              const Vec2& px) {
-  const auto b = camera::unproject(sim.camera(), px);
-  if (!b) return std::nullopt;
-  return castRay(sim, T_W_C, t_s, b->normalized());
-}
+// Rays that meet nothing within this range see the sky.
+constexpr double kRayRangeM = 30.0;
 
 // Next to a depth edge: one of the 8 pixels 6 px around px sees nothing, or something that
 // `differs` from the point px sees.
 bool nextToDepthEdge(const sim::Simulation& sim, const SE3& T_W_C, double t_s, const Vec2& px,
                      const std::function<bool(const Vec3&)>& differs) {
   for (int a = 0; a < 8; ++a) {
-    const auto q = castPixel(sim, T_W_C, t_s,
-                             px + 6.0 * Vec2(std::cos(a * M_PI / 4.0), std::sin(a * M_PI / 4.0)));
+    const auto q =
+        sim.castPixel(T_W_C, px + 6.0 * Vec2(std::cos(a * M_PI / 4.0), std::sin(a * M_PI / 4.0)),
+                      t_s, kRayRangeM);
     if (!q || differs(*q)) return true;
   }
   return false;
@@ -119,8 +97,8 @@ DriftStats measureDrift(const std::vector<std::string>& frontend_sets) {
   forEachFrame(row, frontend, [&](double t_s, const SE3& T_W_C, const FrontendResult& r) {
     for (const FeatureObservation& o : r.observations) {
       if (o.age == 1) {
-        const auto p_W = castRay(sim, T_W_C, t_s, o.bearing_C);
-        if (p_W && onGround(sim, *p_W)) ground_W[o.track_id] = *p_W;
+        const auto p_W = sim.castRay(T_W_C, o.bearing_C, t_s, kRayRangeM);
+        if (p_W && sim.world().onGround(*p_W)) ground_W[o.track_id] = *p_W;
         continue;
       }
       const auto g = ground_W.find(o.track_id);
@@ -137,8 +115,8 @@ DriftStats measureDrift(const std::vector<std::string>& frontend_sets) {
     }
   });
   DriftStats s;
-  s.median_one_frame_px = median(one);
-  s.median_ten_frames_px = median(ten);
+  s.median_one_frame_px = upperMedian(one);
+  s.median_ten_frames_px = upperMedian(ten);
   s.tracks_ten_frames = static_cast<int>(ten.size());
   s.far_off_fraction = ten.empty() ? 1.0 : static_cast<double>(far_off) / ten.size();
   return s;
@@ -192,10 +170,10 @@ StepBias measureStepBias() {
           }
         }
       }
-      const auto p_W = castPixel(sim, T_W_C, t_s, o.px);
-      if (!p_W || !onGround(sim, *p_W)) continue;
-      const bool edge =
-          nextToDepthEdge(sim, T_W_C, t_s, o.px, [&](const Vec3& q) { return !onGround(sim, q); });
+      const auto p_W = sim.castPixel(T_W_C, o.px, t_s, kRayRangeM);
+      if (!p_W || !sim.world().onGround(*p_W)) continue;
+      const bool edge = nextToDepthEdge(sim, T_W_C, t_s, o.px,
+                                        [&](const Vec3& q) { return !sim.world().onGround(q); });
       next[o.track_id] = {o.px, *p_W, edge};
     }
     prev.swap(next);
@@ -294,7 +272,7 @@ RotationBias measureRotationBias() {
           ++n[k];
         }
       }
-      const auto p_W = castPixel(sim, T_W_C, t_s, o.px);
+      const auto p_W = sim.castPixel(T_W_C, o.px, t_s, kRayRangeM);
       if (!p_W) continue;
       // Next to a depth edge: a point 6 px away lies more than 10 % nearer or farther (or is sky).
       const double depth = (*p_W - T_W_C.translation()).norm();

@@ -50,15 +50,11 @@ TrackTruthReport followGrid(
   for (int v = 20; v < h - 20; v += 23) {
     for (int u = 20; u < w - 20; u += 23) {
       const Vec2 px(u + 0.3, v + 0.6);
-      const SE3 T_W_C = sim.trajectory().T_W_B(sim.rowTime(kFirstFrame, v + 1)) * sim.T_B_C();
-      const auto b = camera::unproject(sim.camera(), px);
+      const double t_s = sim.rowTime(kFirstFrame, v + 1);
+      const SE3 T_W_C = sim.trajectory().T_W_B(t_s) * sim.T_B_C();
       std::optional<Truth> t;
-      if (b) {
-        const Vec3 d_W = T_W_C.linear() * b->normalized();
-        const auto hit = sim.world().firstOpaqueHit(T_W_C.translation(), d_W, 60.0,
-                                                    sim.rowTime(kFirstFrame, v + 1));
-        if (hit) t = Truth{T_W_C.translation() + *hit * d_W, d_W};
-      }
+      if (const auto p_W = sim.castPixel(T_W_C, px, t_s, 60.0))
+        t = Truth{*p_W, (*p_W - T_W_C.translation()).normalized()};
       points.push_back(t);
       start.push_back({points.size() - 1, px});
     }
