@@ -4,13 +4,24 @@
 
 namespace ovo::frontend {
 
+namespace {
+// Sightings a recycled history buffer may keep room for.
+constexpr std::size_t kSpareHistoryCapacity = 8;
+}  // namespace
+
 void TrackManager::update(std::int64_t frame_index, Timestamp t_ns, const std::vector<Vec2>& px,
                           const std::vector<Vec3>& bearings_C,
                           const std::vector<int>& feature_class,
                           const std::vector<int>& prev_index) {
   const std::size_t n = px.size();
-  // The tracks that ended at the previous update lend their history buffers to new tracks.
-  for (Track& t : finished_) spare_.push_back(std::move(t));
+  // The tracks that ended at the previous update lend their history buffers to new tracks, but
+  // not a long track's large one: most new tracks end within a few frames, and a pool in which
+  // every buffer that ever held a long track kept its room made the memory grow with the run's
+  // length (docs/block.md).
+  for (Track& t : finished_) {
+    t.history.clearKeepingAtMost(kSpareHistoryCapacity);
+    spare_.push_back(std::move(t));
+  }
   finished_.clear();
   continued_.assign(tracks_.size(), 0);
   next_.resize(n);

@@ -29,6 +29,8 @@ class TrackHistory {
   using const_reverse_iterator = std::reverse_iterator<const_iterator>;
 
   std::size_t size() const { return buffer_.size() - first_; }
+  /// Sightings the buffer has room for without reallocating.
+  std::size_t capacity() const { return buffer_.capacity(); }
   bool empty() const { return size() == 0; }
   const TrackObservation& operator[](std::size_t k) const { return buffer_[first_ + k]; }
   const TrackObservation& front() const { return buffer_[first_]; }
@@ -41,6 +43,16 @@ class TrackHistory {
   void clear() {
     buffer_.clear();
     first_ = 0;
+  }
+  /// Empties the history; a buffer with room for more than `keep` sightings is replaced by one
+  /// with room for `keep`.
+  void clearKeepingAtMost(std::size_t keep) {
+    if (buffer_.capacity() > keep) {
+      std::vector<TrackObservation> smaller;
+      smaller.reserve(keep);
+      buffer_.swap(smaller);
+    }
+    clear();
   }
   /// Appends obs; with max_size > 0 keeps only the newest max_size sightings.
   void push_back(const TrackObservation& obs, int max_size = 0) {

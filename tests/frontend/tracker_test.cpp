@@ -113,6 +113,26 @@ TEST(TrackManager, NewTracksStartCleanAfterLongTracksEnd) {
   EXPECT_EQ(tracks.find(old_ids[0]), nullptr);
 }
 
+TEST(TrackManager, ALongTracksBufferIsNotLentWholeToANewTrack) {
+  // A track that lived 40 frames had room for up to twice the 32 newest sightings; when it ends,
+  // the new track that takes its buffer gets one with little room (a pool of such buffers made a
+  // long run's memory grow).
+  TrackManager tracks;
+  const std::vector<Vec3> b(1, Vec3::UnitZ());
+  tracks.update(0, 0, {{0, 0}}, b, {0}, {-1});
+  for (int k = 1; k < 40; ++k) tracks.update(k, k, {{double(k), 0}}, b, {0}, {0});
+  ASSERT_GE(tracks.current(0).history.capacity(), 32u);
+  tracks.update(40, 40, {{50, 50}}, b, {0}, {-1});  // the long track ends
+  tracks.update(41, 41, {{60, 60}}, b, {0}, {-1});  // a new track takes its buffer
+  EXPECT_EQ(tracks.current(0).history.size(), 1u);
+  EXPECT_LE(tracks.current(0).history.capacity(), 8u);
+  ASSERT_EQ(tracks.finishedTracks().size(), 0u);
+  // The new track grows as any other.
+  for (int k = 42; k < 80; ++k) tracks.update(k, k, {{double(k), 0}}, b, {0}, {0});
+  EXPECT_EQ(tracks.current(0).history.size(), 32u);
+  EXPECT_EQ(tracks.current(0).history.back().frame_index, 79);
+}
+
 camera::Camera pinhole640() {
   return camera::PinholeRadtanCamera(500, 500, 319.5, 239.5, 640, 480);
 }
