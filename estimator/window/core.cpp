@@ -389,6 +389,7 @@ Keyframe* WindowCore::addKeyframe(Timestamp t_ns, const SE3& T_W_B, const Vec3& 
     const Keyframe& prev = *map_.keyframes.back();
     if (auto pi = preintegrate(prev.t_ns, t_ns, prev.bias()))
       kf->preint_from_prev = std::make_shared<factors::GyroPreintegration>(std::move(*pi));
+    kf->accel_from_prev = accelInterval(prev.t_ns, t_ns, prev.bias());
   }
   if (scan) kf->scan = *scan->scan;
   frames_.addKeyframeTime(kf->id, t_ns);

@@ -118,6 +118,13 @@ class WindowCore {
   /// offset, gyroShift()).
   std::optional<factors::GyroPreintegration> preintegrate(Timestamp t0, Timestamp t1,
                                                           const Vec3& bias) const;
+  /// The accelerometer over [t0, t1] of image time (factors::integrateAccel on the gyro's
+  /// interval); nullopt unless usesAccel(model_) and the samples cover it.
+  std::optional<factors::AccelInterval> accelInterval(Timestamp t0, Timestamp t1,
+                                                      const Vec3& bias) const;
+  /// Sets the run's gravity direction (WindowMap::gravity) from the first keyframe with an
+  /// accelerometer interval, as if the robot did not accelerate there; once.
+  void setGravity();
   /// The same over [t0, t1] of the gyro's clock.
   std::optional<factors::GyroPreintegration> preintegrateOnGyroClock(Timestamp t0, Timestamp t1,
                                                                      const Vec3& bias) const;

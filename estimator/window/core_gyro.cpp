@@ -62,6 +62,30 @@ std::optional<factors::GyroPreintegration> WindowCore::preintegrate(Timestamp t0
   return gyro_.preintegrate(t0, t1, bias, gyroShift());
 }
 
+std::optional<factors::AccelInterval> WindowCore::accelInterval(Timestamp t0, Timestamp t1,
+                                                                const Vec3& bias) const {
+  if (!use_gyro_ || !usesAccel(model_)) return std::nullopt;
+  const Timestamp shift = gyroShift();
+  return factors::integrateAccel(gyro_.around(t0 - shift, t1 - shift), t0 - shift, t1 - shift,
+                                 bias);
+}
+
+void WindowCore::setGravity() {
+  if (map_.gravity_set || !usesAccel(model_)) return;
+  for (const auto& kf : map_.keyframes) {
+    if (!kf->accel_from_prev) continue;
+    // The specific force's mean over the interval, in the keyframe's frame (the rise is in it, the
+    // fall in the previous keyframe's: near enough for a start).
+    const factors::AccelInterval& a = *kf->accel_from_prev;
+    const Vec3 f_B = 2.0 / a.dt_s * (a.rise_B1 + a.fall_B0) * 0.5;
+    if (!(f_B.norm() > 1.0)) continue;
+    factors::setGravityDirection(-(kf->bodyPose().linear() * f_B), map_.gravity);
+    map_.gravity_set = true;
+    note(fmt::format("window: gravity set from the accelerometer at keyframe {}", kf->id));
+    return;
+  }
+}
+
 std::optional<factors::GyroPreintegration> WindowCore::preintegrateOnGyroClock(
     Timestamp t0, Timestamp t1, const Vec3& bias) const {
   if (!use_gyro_) return std::nullopt;
@@ -120,6 +144,8 @@ void WindowCore::refreshGyroFactors() {
   for (std::size_t k = 1; k < map_.keyframes.size(); ++k) {
     Keyframe& kf = *map_.keyframes[k];
     const Keyframe& prev = *map_.keyframes[k - 1];
+    if (usesAccel(model_) && !kf.accel_from_prev && kf.preint_from_prev)
+      kf.accel_from_prev = accelInterval(prev.t_ns, kf.t_ns, prev.bias());
     auto& pi = kf.preint_from_prev;
     if (!pi) continue;
     const Timestamp shift = gyroShift();

@@ -98,8 +98,9 @@ void WindowCore::solveWindow() {
   refreshGyroFactors();
   auto kfs = windowKeyframes();
   seedTerrain(kfs, model_);
+  setGravity();
   auto factors = buildFactors(kfs, map_.landmarks, model_, gauge_, &ledger_, map_.time_offset_s,
-                              map_.camera_height_offset_m);
+                              map_.camera_height_offset_m, map_.gravity);
   last_solve_ = {};
   last_solve_.keyframes = static_cast<int>(kfs.size());
   for (const auto& f : factors) last_solve_.lidar_factors += f.kind == FactorKind::kLidar;
@@ -114,6 +115,7 @@ void WindowCore::solveWindow() {
   so.time_offset = {map_.time_offset_s, options_.time_offset_max_s};
   so.camera_height_offset = {map_.camera_height_offset_m,
                              5.0 * model_.camera_height_offset_sigma_m};
+  so.gravity = map_.gravity;
   const SolveSummary s = solveFactors(std::move(factors), kfs, map_.landmarks, model_, so);
   if (s.failed) {
     if (++stats_.solve_failures == 1)
@@ -136,7 +138,7 @@ std::optional<Eigen::Matrix<double, 6, 6>> WindowCore::newestPoseCovariance() {
   if (!initialized_ || map_.empty()) return std::nullopt;
   auto kfs = windowKeyframes();
   auto factors = buildFactors(kfs, map_.landmarks, model_, gauge_, &ledger_, map_.time_offset_s,
-                              map_.camera_height_offset_m);
+                              map_.camera_height_offset_m, map_.gravity);
   return poseCovariance(std::move(factors), kfs, model_, *kfs.back());
 }
 

@@ -10,6 +10,7 @@
 #include "estimator/window/lidar_gate.hpp"
 #include "estimator/window/sighting.hpp"
 #include "estimator/window/terrain.hpp"
+#include "factors/accel_factor.hpp"
 #include "factors/bearing_factor.hpp"
 #include "factors/bearing_step_factor.hpp"
 #include "factors/bias_prior_factor.hpp"
@@ -228,6 +229,33 @@ bool addGyroFactors(const Keyframes& keyframes, const WindowModel& model, double
   return offset_used;
 }
 
+// The accelerometer between each three consecutive keyframes of one segment, on the middle one's
+// orientation (the gyro chain's), the three positions and the run's gravity state; true when a
+// factor uses that state.
+bool addAccelFactors(const Keyframes& keyframes, const WindowModel& model, double* gravity,
+                     std::vector<FactorSpec>& out) {
+  if (gravity == nullptr || !usesAccel(model)) return false;
+  bool used = false;
+  for (std::size_t k = 1; k + 1 < keyframes.size(); ++k) {
+    Keyframe* i = keyframes[k - 1];
+    Keyframe* j = keyframes[k];
+    Keyframe* l = keyframes[k + 1];
+    if (i->segment != j->segment || j->segment != l->segment || !j->accel_from_prev ||
+        !l->accel_from_prev)
+      continue;
+    FactorSpec a;
+    a.kind = FactorKind::kAccel;
+    a.cost = std::make_unique<factors::AccelerationFactor>(
+        *j->accel_from_prev, *l->accel_from_prev, model.gravity_mps2, model.accel_sigma_mps2,
+        model.accel_position_sigma_m);
+    a.blocks = {gyroRotation(*j, model), i->p_W_B, j->p_W_B, l->p_W_B, gravity};
+    a.kf_id = j->id;
+    out.push_back(std::move(a));
+    used = true;
+  }
+  return used;
+}
+
 // Each keyframe's vision orientation tied to its gyro chain's.
 void addRotationTieFactors(const Keyframes& keyframes, const WindowModel& model,
                            std::vector<FactorSpec>& out) {
@@ -293,7 +321,7 @@ std::vector<FactorSpec> buildFactors(const std::vector<Keyframe*>& keyframes,
                                      std::unordered_map<TrackId, Landmark>& landmarks,
                                      const WindowModel& model, const WindowGauge& gauge,
                                      const FactorLedger* ledger, double* time_offset_s,
-                                     double* camera_height_offset_m) {
+                                     double* camera_height_offset_m, double* gravity) {
   std::vector<FactorSpec> out;
   const auto kf_of = keyframesById(keyframes);
   addBearingFactors(keyframes, kf_of, landmarks, model, out);
@@ -305,6 +333,7 @@ std::vector<FactorSpec> buildFactors(const std::vector<Keyframe*>& keyframes,
   const bool with_offset = time_offset_s != nullptr && estimatesTimeOffset(model);
   const bool offset_used =
       addGyroFactors(keyframes, model, with_offset ? time_offset_s : nullptr, out);
+  const bool gravity_used = addAccelFactors(keyframes, model, gravity, out);
   addRotationTieFactors(keyframes, model, out);
   addZeroRateFactors(keyframes, model, out);
   addGaugeFactors(kf_of, model, gauge, out);
@@ -312,16 +341,26 @@ std::vector<FactorSpec> buildFactors(const std::vector<Keyframe*>& keyframes,
   // factor of it, or the marginalisation prior): a plausibility bound that holds the time offset
   // while the motion does not show it (a constant rate), and the camera height while the LiDAR
   // sees little. They touch no keyframe: never marginalised.
-  const auto scalarPrior = [&](double* block, bool used, FactorKind kind, double sigma) {
+  const auto held = [&](double* block, bool used) {
     const auto& kept =
         gauge.marginalization ? gauge.marginalization->keptBlocks() : std::vector<double*>{};
-    if (!used && std::find(kept.begin(), kept.end(), block) == kept.end()) return;
+    return used || std::find(kept.begin(), kept.end(), block) != kept.end();
+  };
+  const auto scalarPrior = [&](double* block, bool used, FactorKind kind, double sigma) {
+    if (!held(block, used)) return;
     FactorSpec p;
     p.kind = kind;
     p.cost = std::make_unique<factors::ScalarPriorFactor>(0.0, sigma);
     p.blocks = {block};
     out.push_back(std::move(p));
   };
+  if (gravity != nullptr && usesAccel(model) && held(gravity, gravity_used)) {
+    FactorSpec p;  // the accelerometer's bias about zero (gravity's direction is free)
+    p.kind = FactorKind::kAccelBiasPrior;
+    p.cost = std::make_unique<factors::AccelBiasPriorFactor>(model.accel_bias_sigma_mps2);
+    p.blocks = {gravity};
+    out.push_back(std::move(p));
+  }
   if (with_offset)
     scalarPrior(time_offset_s, offset_used, FactorKind::kTimeOffsetPrior,
                 model.time_offset_sigma_s);

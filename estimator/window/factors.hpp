@@ -48,12 +48,14 @@ struct FactorSpec {
 /// time_offset_s block (WindowMap::time_offset_s) and estimatesTimeOffset(model), the gyro
 /// factors take it as a state and it gets its prior; likewise the camera-height factors with a
 /// camera_height_offset_m block (WindowMap::camera_height_offset_m) and
-/// estimatesCameraHeight(model).
+/// estimatesCameraHeight(model); and the accelerometer's factors with a gravity block
+/// (WindowMap::gravity) and usesAccel(model).
 std::vector<FactorSpec> buildFactors(const std::vector<Keyframe*>& keyframes,
                                      std::unordered_map<TrackId, Landmark>& landmarks,
                                      const WindowModel& model, const WindowGauge& gauge,
                                      const FactorLedger* ledger = nullptr,
                                      double* time_offset_s = nullptr,
-                                     double* camera_height_offset_m = nullptr);
+                                     double* camera_height_offset_m = nullptr,
+                                     double* gravity = nullptr);
 
 }  // namespace ovo::estimator

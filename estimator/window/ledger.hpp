@@ -25,7 +25,9 @@ enum class FactorKind {
   kTerrain,           // a ground landmark on its anchor's terrain plane (track) or the plane's walk
   kRotationTie,       // a keyframe's vision orientation tied to its gyro chain's
   kTimeOffsetPrior,   // the camera-gyro time offset's prior (stays in the window)
-  kCameraHeightPrior  // the camera height correction's prior (stays in the window)
+  kCameraHeightPrior,  // the camera height correction's prior (stays in the window)
+  kAccel,              // the accelerometer between three keyframes (kf_id: the middle one)
+  kAccelBiasPrior      // the accelerometer bias's prior (stays in the window)
 };
 
 /// The measurement a factor stands for: its kind, its landmark (-1: none) and its keyframe (the

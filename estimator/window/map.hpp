@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "common/types.hpp"
+#include "factors/accel_factor.hpp"
 #include "factors/gyro_preintegration.hpp"
 
 namespace ovo::estimator {
@@ -87,6 +88,9 @@ struct Keyframe {
   std::unordered_map<TrackId, TrackObservation> observations;
   /// Gyro preintegration from the previous keyframe of the same segment (null: none / no gyro).
   std::shared_ptr<factors::GyroPreintegration> preint_from_prev;
+  /// The accelerometer over the same interval (WindowModel::accel_sigma_mps2; none without it or
+  /// where the samples do not cover the interval).
+  std::optional<factors::AccelInterval> accel_from_prev;
   std::vector<LidarAssociation> lidar;             // beams associated with landmarks
   std::vector<LidarAssociation> lidar_candidates;  // beams near tracks (landmarks or not yet)
   std::unordered_set<TrackId> lidar_rejected;      // associations removed as outliers: not again
@@ -153,6 +157,11 @@ class WindowMap {
   /// The correction of the rig's camera height the camera-height factors use, m: one state for
   /// the whole run, seen through the LiDAR's ranges and ground beams.
   double camera_height_offset_m[1] = {0.0};
+  /// Gravity's direction in W and the accelerometer's bias (factors::kGravityStateSize; with
+  /// WindowModel::accel_sigma_mps2): one state for the whole run, set from the first
+  /// accelerometer interval (gravity_set) and then estimated.
+  double gravity[factors::kGravityStateSize] = {0.0, 0.0, 0.0, 0.0, 0.0};
+  bool gravity_set = false;
 
   Keyframe* find(int kf_id);
   const Keyframe* find(int kf_id) const;

@@ -16,7 +16,8 @@ std::shared_ptr<const factors::MarginalizationInfo> marginalizeOldest(
   for (auto& kf : map.keyframes) kfs.push_back(kf.get());
 
   std::vector<FactorSpec> all = buildFactors(kfs, map.landmarks, model, gauge, ledger,
-                                             map.time_offset_s, map.camera_height_offset_m);
+                                             map.time_offset_s, map.camera_height_offset_m,
+                                             map.gravity);
   auto info = std::make_shared<factors::MarginalizationInfo>();
   for (Keyframe* kf : kfs) {
     info->setQuaternionBlock(kf->q_W_B);

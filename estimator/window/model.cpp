@@ -41,6 +41,9 @@ WindowModel makeWindowModel(const SensorSetup& setup, const WindowOptions& optio
                                                                : setup.gyro_bias_random_walk;
   model.bias_prior_sigma_radps = options.gyro_bias_prior_sigma_radps;
   model.vision_rotation_sigma_rad = options.vision_rotation_sigma_rad;
+  model.accel_sigma_mps2 = options.accel_sigma_mps2;
+  model.accel_position_sigma_m = options.accel_position_sigma_m;
+  model.accel_bias_sigma_mps2 = options.accel_bias_sigma_mps2;
   model.gauge_sigma_position_m = options.gauge_sigma_position_m;
   model.gauge_sigma_rotation_rad = options.gauge_sigma_yaw_rad;
   model.max_rho = 1.0 / (0.5 * options.landmark_min_depth_m);

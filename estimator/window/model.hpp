@@ -28,6 +28,12 @@ struct WindowModel {
   double lidar_huber = 2.0;             // robust loss threshold on the whitened residual (sigmas)
   bool lidar_cauchy = false;         // Cauchy (an association far off pulls ever less), else Huber
   double bias_random_walk = 2.0e-5;  // rad/s^2/sqrt(Hz)
+  // The accelerometer's tilt factors (factors::AccelerationFactor; 0: none), its bias prior, and
+  // gravity's magnitude.
+  double accel_sigma_mps2 = 0.0;
+  double accel_position_sigma_m = 5e-4;
+  double accel_bias_sigma_mps2 = 0.1;
+  double gravity_mps2 = 9.81;
   double vision_rotation_sigma_rad = 0.0;  // a keyframe's orientation error as the vision sees
                                            // it (RotationTieFactor; 0: no tie, one orientation)
   double bias_prior_sigma_radps = 0.02;
@@ -64,6 +70,12 @@ WindowModel makeWindowModel(const SensorSetup& setup, const WindowOptions& optio
 /// True when the model estimates a correction of the camera height (a height and a prior sigma).
 inline bool estimatesCameraHeight(const WindowModel& model) {
   return model.camera_height_m > 0.0 && model.camera_height_offset_sigma_m > 0.0;
+}
+
+/// True when the keyframes' accelerometer intervals give tilt factors (needs the gyro to turn the
+/// samples).
+inline bool usesAccel(const WindowModel& model) {
+  return model.use_gyro && model.accel_sigma_mps2 > 0.0;
 }
 
 /// True when the model estimates the camera-gyro time offset (a gyro and a prior sigma).

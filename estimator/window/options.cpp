@@ -51,6 +51,11 @@ WindowOptions readWindowOptions(const Config& c) {
       c.getInRange(p + "gyro_bias_random_walk", o.gyro_bias_random_walk, -1.0, 1.0);
   o.vision_rotation_sigma_rad =
       c.getInRange(p + "vision_rotation_sigma_rad", o.vision_rotation_sigma_rad, 0.0, 1.0);
+  o.accel_sigma_mps2 = c.getInRange(p + "accel_sigma_mps2", o.accel_sigma_mps2, 0.0, 100.0);
+  o.accel_position_sigma_m =
+      c.getInRange(p + "accel_position_sigma_m", o.accel_position_sigma_m, 0.0, 10.0);
+  o.accel_bias_sigma_mps2 =
+      c.getInRange(p + "accel_bias_sigma_mps2", o.accel_bias_sigma_mps2, 1e-6, 100.0);
   o.reinit_bias_sigma_radps =
       c.getInRange(p + "reinit_bias_sigma_radps", o.reinit_bias_sigma_radps, 1e-9, 10.0);
   o.gyro_bias_prior_sigma_radps =

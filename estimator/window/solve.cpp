@@ -9,6 +9,7 @@
 #include <limits>
 #include <unordered_set>
 
+#include "factors/accel_factor.hpp"
 #include "factors/bearing_factor.hpp"
 #include "factors/parameterization.hpp"
 
@@ -51,6 +52,9 @@ SolveSummary solveFactors(std::vector<FactorSpec> factors, const std::vector<Key
   std::array<double, 2> scalar_backup{};
   for (std::size_t i = 0; i < scalars.size(); ++i)
     if (scalars[i].block) scalar_backup[i] = scalars[i].block[0];
+
+  std::array<double, factors::kGravityStateSize> gravity_backup{};
+  if (options.gravity) std::copy_n(options.gravity, gravity_backup.size(), gravity_backup.begin());
 
   std::unordered_set<const double*> used;
   for (const FactorSpec& f : factors) used.insert(f.blocks.begin(), f.blocks.end());
@@ -100,10 +104,14 @@ SolveSummary solveFactors(std::vector<FactorSpec> factors, const std::vector<Key
                            kf->q_W_G[0] + kf->q_W_G[1] + kf->q_W_G[2] + kf->q_W_G[3]);
   for (const auto& [id, lm] : landmarks) finite = finite && std::isfinite(lm.rho[0]);
   for (const ScalarState& x : scalars) finite = finite && (!x.block || std::isfinite(x.block[0]));
+  if (options.gravity)
+    for (int i = 0; i < factors::kGravityStateSize; ++i)
+      finite = finite && std::isfinite(options.gravity[i]);
   if (!finite) {
     summary.failed = true;
     for (std::size_t i = 0; i < scalars.size(); ++i)
       if (scalars[i].block) scalars[i].block[0] = scalar_backup[i];
+    if (options.gravity) std::copy(gravity_backup.begin(), gravity_backup.end(), options.gravity);
     for (std::size_t k = 0; k < keyframes.size(); ++k) {
       std::copy_n(kf_backup[k].q, 4, keyframes[k]->q_W_B);
       std::copy_n(kf_backup[k].g, 4, keyframes[k]->q_W_G);

@@ -30,6 +30,7 @@ struct SolveOptions {
   int num_threads = 1;
   ScalarState time_offset;           // s
   ScalarState camera_height_offset;  // m
+  double* gravity = nullptr;  // WindowMap::gravity (restored with the rest on failure)
 };
 
 struct SolveSummary {

@@ -40,11 +40,12 @@ std::vector<Keyframe*> windowKeyframes(const WindowCore& core) {
 /// The window's factors as buildFactors makes them now, without the ledger's filter (the test
 /// only reads them; buildFactors needs the landmarks' blocks by address).
 std::vector<FactorSpec> unfilteredFactors(const WindowCore& core) {
-  auto& landmarks = const_cast<std::unordered_map<TrackId, Landmark>&>(core.map().landmarks);
-  return buildFactors(windowKeyframes(core), landmarks, core.model(), core.gauge());
+  auto& map = const_cast<WindowMap&>(core.map());
+  return buildFactors(windowKeyframes(core), map.landmarks, core.model(), core.gauge(), nullptr,
+                      nullptr, nullptr, map.gravity);
 }
 
-// Every factor kind, a stop for zero-rate updates and terrain planes: after every
+// Every factor kind (the accelerometer's too), a stop for zero-rate updates and terrain planes: after every
 // marginalisation the factors the window would build, even without the ledger's filter, are
 // none of those already in the prior (the policy itself counts each measurement once), and
 // over the run every kind of measurement has gone into the prior.
@@ -58,6 +59,7 @@ TEST(WindowLedger, NoMeasurementIsInThePriorAndInTheWindow) {
   WindowOptions options;
   options.terrain_planes = true;
   options.vision_rotation_sigma_rad = 1e-3;
+  options.accel_sigma_mps2 = 0.01;
   WindowCore core(seq.setup, options);
   int keyframes_checked = 0, overlaps = 0;
   test::feedSequence(seq, core, [&](std::size_t, const FrameEstimate& e) {
@@ -79,7 +81,7 @@ TEST(WindowLedger, NoMeasurementIsInThePriorAndInTheWindow) {
   for (const FactorKind kind :
        {FactorKind::kBearing, FactorKind::kGyro, FactorKind::kBiasWalk, FactorKind::kBiasPrior,
         FactorKind::kZeroRate, FactorKind::kPosePrior, FactorKind::kLidar, FactorKind::kGround,
-        FactorKind::kTerrain, FactorKind::kRotationTie})
+        FactorKind::kTerrain, FactorKind::kRotationTie, FactorKind::kAccel})
     EXPECT_GT(core.ledger().recorded(kind, FactorLedger::Fate::kPrior), 0)
         << "no factor of kind " << static_cast<int>(kind) << " went into the prior";
 }
@@ -513,13 +515,15 @@ std::vector<std::vector<double>> blockValues(const FactorSpec& f) {
 // priors, rotation ties, LiDAR ranges and ground planes, camera heights, the gauge and the
 // marginalisation prior) has the Jacobians of central differences, at the states a run left.
 TEST(WindowJacobians, EveryResidualBlockOfARunsWindowMatchesNumericDifferences) {
-  RunWindow w = runWindow(90);
+  WindowOptions options;
+  options.accel_sigma_mps2 = 0.01;
+  RunWindow w = runWindow(90, options);
   const WindowCore& core = *w.core;
   ASSERT_TRUE(core.initialized());
   ASSERT_TRUE(core.gauge().marginalization) << "the run should have marginalised by now";
-  auto& landmarks = const_cast<std::unordered_map<TrackId, Landmark>&>(core.map().landmarks);
-  const auto factors =
-      buildFactors(windowKeyframes(core), landmarks, core.model(), core.gauge(), &core.ledger());
+  auto& map = const_cast<WindowMap&>(core.map());
+  const auto factors = buildFactors(windowKeyframes(core), map.landmarks, core.model(),
+                                    core.gauge(), &core.ledger(), nullptr, nullptr, map.gravity);
   const auto quats = quaternionBlocks(core);
   std::map<FactorKind, int> checked;
   for (const FactorSpec& f : factors) {
@@ -533,7 +537,8 @@ TEST(WindowJacobians, EveryResidualBlockOfARunsWindowMatchesNumericDifferences) 
   }
   for (const FactorKind kind :
        {FactorKind::kBearing, FactorKind::kGyro, FactorKind::kBiasWalk, FactorKind::kRotationTie,
-        FactorKind::kLidar, FactorKind::kGround, FactorKind::kMarginal})
+        FactorKind::kLidar, FactorKind::kGround, FactorKind::kMarginal, FactorKind::kAccel,
+        FactorKind::kAccelBiasPrior})
     EXPECT_GT(checked[kind], 0) << "no factor of kind " << static_cast<int>(kind) << " checked";
 }
 

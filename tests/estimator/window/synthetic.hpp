@@ -38,6 +38,9 @@ struct SyntheticOptions {
   double vision_rotation_jitter_rad = 0.0;  // every frame's features are seen as from a camera
                                             // turned by a random rotation of this sigma per axis
                                             // (the same for all of the frame's tracks)
+  double vision_drift_radps = 0.0;  // the canopy's tracks are seen as from a camera turned about
+                                    // its x axis (a pitch) by this rate times the time (the ground's
+                                    // are true): the steady drift of tracks at depth edges
   std::uint32_t seed = 3;
 };
 
@@ -172,7 +175,12 @@ inline SyntheticSequence makeSyntheticSequence(const SyntheticOptions& o,
     s.t_ns = fromSeconds(t);
     s.gyro_radps = Vec3(0, 0, yaw_rate[k]) + o.gyro_bias +
                    gyro_sigma * Vec3(gauss(rng), gauss(rng), gauss(rng));
-    s.accel_mps2 = Vec3(0, 0, 9.81);
+    // The specific force R_W_B^T (a_W - g_W), a_W from the positions' second differences.
+    const int k0 = std::clamp(k, 1, steps - 2);
+    const Vec3 a_W = (poses[k0 + 1].translation() - 2.0 * poses[k0].translation() +
+                      poses[k0 - 1].translation()) /
+                     (dt * dt);
+    s.accel_mps2 = poses[k].linear().transpose() * (a_W + Vec3(0, 0, 9.81));
     seq.imu.push_back(s);
   }
 
@@ -187,12 +195,14 @@ inline SyntheticSequence makeSyntheticSequence(const SyntheticOptions& o,
     frame.T_W_B = poseAt(t);
     frame.visual.t_ns = frame.t_ns;
     const Mat3 R_jitter =
-        o.vision_rotation_jitter_rad > 0.0
-            ? so3::exp(o.vision_rotation_jitter_rad * Vec3(gauss(rng), gauss(rng), gauss(rng)))
-            : Mat3::Identity();
+        (o.vision_rotation_jitter_rad > 0.0
+             ? so3::exp(o.vision_rotation_jitter_rad * Vec3(gauss(rng), gauss(rng), gauss(rng)))
+             : Mat3::Identity());
+    const Mat3 R_drift = so3::exp(Vec3(o.vision_drift_radps * t, 0.0, 0.0));
     const SE3 T_C_W = (frame.T_W_B * T_B_C).inverse();
     for (std::size_t i = 0; i < points.size(); ++i) {
-      const Vec3 p_C = R_jitter * (T_C_W * points[i]);
+      const bool canopy = points[i].z() > 0.25;
+      const Vec3 p_C = (canopy ? R_drift : Mat3::Identity()) * R_jitter * (T_C_W * points[i]);
       const double d = p_C.norm();
       if (d < 0.3 || d > 12.0 || p_C.z() < -0.2 * d) continue;
       const auto px = camera::project(seq.setup.camera, p_C);
