@@ -108,19 +108,19 @@ bool AccelerationFactor::Evaluate(double const* const* parameters, double* resid
   const Eigen::Map<const Vec3> b_a(s + 2);
   const double c = 2.0 / (dt1_ + dt2_);
   const Vec3 a_W = c * ((p2 - p1) / dt2_ - (p1 - p0) / dt1_);
-  const Vec3 f_W = R * (f_mean_B1_ - b_a);
+  const Vec3 v_W = a_W - gravity_ * gravityDirection(s);  // what the accelerometer should read
   Eigen::Map<Vec3> r(residuals);
-  r = inv_sigma_ * (f_W - a_W + gravity_ * gravityDirection(s));
+  r = inv_sigma_ * (f_mean_B1_ - b_a - R.transpose() * v_W);
   if (!jacobians) return true;
   if (jacobians[0]) {
-    // R <- Exp(theta) R: d(R v)/dtheta = -[R v]x.
-    const Mat3 J = -inv_sigma_ * so3::hat(f_W);
+    // R <- Exp(theta) R: R^T v <- R^T Exp(-theta) v = R^T (v + [v]x theta).
+    const Mat3 J = -inv_sigma_ * R.transpose() * so3::hat(v_W);
     rotationJacobianToAmbient<3>(J, parameters[0], jacobians[0]);
   }
   const auto setPos = [&](int i, double k) {
     if (!jacobians[i]) return;
     Eigen::Map<Eigen::Matrix<double, 3, 3, Eigen::RowMajor>> J(jacobians[i]);
-    J = -inv_sigma_ * k * Mat3::Identity();
+    J = -inv_sigma_ * k * R.transpose();
   };
   setPos(1, c / dt1_);
   setPos(2, -c * (1.0 / dt1_ + 1.0 / dt2_));
@@ -129,9 +129,9 @@ bool AccelerationFactor::Evaluate(double const* const* parameters, double* resid
     Eigen::Map<Eigen::Matrix<double, 3, kGravityStateSize, Eigen::RowMajor>> J(jacobians[4]);
     const double ca = std::cos(s[0]), sa = std::sin(s[0]), cb = std::cos(s[1]),
                  sb = std::sin(s[1]);
-    J.col(0) = inv_sigma_ * gravity_ * Vec3(0.0, cb * ca, cb * sa);
-    J.col(1) = inv_sigma_ * gravity_ * Vec3(-cb, -sb * sa, sb * ca);
-    J.rightCols<3>() = -inv_sigma_ * R;
+    J.col(0) = inv_sigma_ * gravity_ * R.transpose() * Vec3(0.0, cb * ca, cb * sa);
+    J.col(1) = inv_sigma_ * gravity_ * R.transpose() * Vec3(-cb, -sb * sa, sb * ca);
+    J.rightCols<3>() = -inv_sigma_ * Mat3::Identity();
   }
   return true;
 }

@@ -50,8 +50,9 @@ Vec3 gravityDirection(const double* state);
 /// The angles (alpha, beta) of a unit gravity direction in W, written into state[0..1].
 void setGravityDirection(const Vec3& down_W, double* state);
 
-/// r = [R_W_B1 (F / int M - b_a) - c ((p2 - p1)/dt2 - (p1 - p0)/dt1) + g d(alpha, beta)] / sigma
-/// (m/s^2 over sigma). Blocks: q_W_B1[4], p_W_B0[3], p_W_B1[3], p_W_B2[3], gravity state[5].
+/// r = [F / int M - b_a - R_W_B1^T (c ((p2 - p1)/dt2 - (p1 - p0)/dt1) - g d(alpha, beta))] / sigma
+/// (m/s^2 over sigma, in the body frame B1: a turn of the whole world, gravity with it, leaves it
+/// unchanged). Blocks: q_W_B1[4], p_W_B0[3], p_W_B1[3], p_W_B2[3], gravity state[5].
 class AccelerationFactor final : public ceres::SizedCostFunction<3, 4, 3, 3, 3, kGravityStateSize> {
  public:
   /// first: the interval [t0, t1] (its rise is in B1); second: [t1, t2] (its fall is in B1).

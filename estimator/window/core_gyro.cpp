@@ -156,6 +156,10 @@ void WindowCore::refreshGyroFactors() {
     if (shifted && gyro_.reaches(prev.t_ns - shift) && gyro_.covers(kf.t_ns - shift)) {
       if (auto again = preintegrate(prev.t_ns, kf.t_ns, pi->biasLinearization()))
         pi = std::make_shared<factors::GyroPreintegration>(std::move(*again));
+      // The accelerometer's interval moves with it (a camera 40 ms early would otherwise compare
+      // the positions with the specific force of another 40 ms).
+      if (usesAccel(model_))
+        kf.accel_from_prev = accelInterval(prev.t_ns, kf.t_ns, pi->biasLinearization());
       continue;
     }
     if (pi->status() == factors::GyroPreintegration::Status::kOk || !gyro_.covers(kf.t_ns - shift))

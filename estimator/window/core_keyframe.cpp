@@ -248,7 +248,8 @@ void WindowCore::refineAll() {
     if (auto T_W_B = keyframePose(g.kf_id)) g.T_W_B = *T_W_B;
   // The camera height as corrected online, held.
   stats_.refine = refineKeyframes(kfs, map_.last_point_W, heightCorrectedModel(), gauges, options_,
-                                  label_ground_options_, map_.time_offset_s);
+                                  label_ground_options_, map_.time_offset_s,
+                                  map_.gravity_set ? map_.gravity : nullptr);
   if (!stats_.refine->usable) note("full refinement failed: the online keyframe poses are kept");
   for (const Keyframe* kf : kfs) frames_.keepPoses(*kf);
 }

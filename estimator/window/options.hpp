@@ -100,7 +100,7 @@ struct WindowOptions {
   // three keyframes against their positions' acceleration and gravity, with this noise (the
   // robot's vibration and the keyframes' position noise; 0: unused), m/s^2; the accelerometer's
   // bias a state with this prior sigma, m/s^2.
-  double accel_sigma_mps2 = 0.0;
+  double accel_sigma_mps2 = 0.01;
   double accel_position_sigma_m = 5e-4;  // the keyframes' positions' noise in that factor, m
   double accel_bias_sigma_mps2 = 0.1;
   double vision_rotation_sigma_rad = 1e-3;  // a keyframe's orientation as the vision sees it is

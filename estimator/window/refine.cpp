@@ -30,6 +30,7 @@ std::unique_ptr<Keyframe> batchCopy(const Keyframe& kf) {
   b->t_ns = kf.t_ns;
   b->copyStates(kf);
   b->preint_from_prev = kf.preint_from_prev;
+  b->accel_from_prev = kf.accel_from_prev;
   b->segment = kf.segment;
   b->zero_rate = kf.zero_rate;
   b->readout = kf.readout;  // a rolling shutter's rows
@@ -79,9 +80,12 @@ RefineInfo refineKeyframes(const std::vector<Keyframe*>& keyframes,
                            const WindowModel& window_model,
                            const std::vector<WindowGauge>& segment_gauges,
                            const WindowOptions& options, const GroundPlaneOptions& ground_options,
-                           const double* time_offset_s) {
+                           const double* time_offset_s, const double* gravity) {
   WindowModel model = window_model;
   double td[1] = {time_offset_s ? time_offset_s[0] : 0.0};               // the batch's copy, held
+  // The batch's copy of the run's gravity and accelerometer bias, estimated again.
+  double g[factors::kGravityStateSize] = {};
+  if (gravity) std::copy_n(gravity, factors::kGravityStateSize, g);
   model.terrain_planes = model.terrain_planes && options.refine_ground;  // no ground: no terrain
   model.bearing_steps = useBearingSteps(options.refine_bearing_steps, options);
   RefineInfo info;
@@ -168,7 +172,8 @@ RefineInfo refineKeyframes(const std::vector<Keyframe*>& keyframes,
   const int passes = std::max(1, options.refine_passes);
   for (int pass = 0; pass < passes; ++pass) {
     auto factors =
-        buildFactors(kfs, landmarks, model, gauge, nullptr, time_offset_s ? td : nullptr);
+        buildFactors(kfs, landmarks, model, gauge, nullptr, time_offset_s ? td : nullptr, nullptr,
+                     gravity ? g : nullptr);
     // Each later segment keeps its placement (nothing links segments but the gyro) and the bias
     // prior it started with.
     for (std::size_t k = 1; k < kfs.size(); ++k) {
@@ -205,6 +210,7 @@ RefineInfo refineKeyframes(const std::vector<Keyframe*>& keyframes,
     // made at the offset of their time (the samples are gone), and the first-order shift of the
     // earliest, made before the estimate settled, is too coarse to estimate the offset from.
     so.time_offset = {time_offset_s ? td : nullptr, options.time_offset_max_s, /*hold=*/true};
+    so.gravity = gravity ? g : nullptr;
     const SolveSummary s = solveFactors(std::move(factors), kfs, landmarks, model, so);
     ++info.passes;
     info.iterations += s.iterations;

@@ -28,11 +28,14 @@ namespace ovo::estimator {
 /// a looser prior (only the gyro links segments) and its bias prior. Without a gauge for the
 /// first keyframe it is held at its pose with the model's bias prior. With a time_offset_s block
 /// (the window's, estimatesTimeOffset(model)) the gyro factors shift their intervals to it (held
-/// at its value). Writes the poses and biases back only when usable.
+/// at its value). With a gravity block (WindowMap::gravity, set, and usesAccel(model)) the
+/// accelerometer's factors join the batch from a copy of it. Writes the poses and biases back
+/// only when usable.
 RefineInfo refineKeyframes(const std::vector<Keyframe*>& keyframes,
                            const std::unordered_map<TrackId, Vec3>& points_W,
                            const WindowModel& model, const std::vector<WindowGauge>& segment_gauges,
                            const WindowOptions& options, const GroundPlaneOptions& ground_options,
-                           const double* time_offset_s = nullptr);
+                           const double* time_offset_s = nullptr,
+                           const double* gravity = nullptr);
 
 }  // namespace ovo::estimator

@@ -757,8 +757,12 @@ TEST(WindowCore, AVisionWhoseRotationJittersIsSmoothedByTheGyro) {
     }
     return std::pair(std::sqrt(step2 / std::max(steps, 1)), std::sqrt(abs2 / seq.frames.size()));
   };
-  const auto tied = run(seq);
-  WindowOptions one_orientation;
+  // The tie alone: the accelerometer, a second hold on roll and pitch, would smooth both runs
+  // (measured with it: 3.1 against 3.0 mrad in all, 0.27 against 1.13 keyframe to keyframe).
+  WindowOptions tied_options;
+  tied_options.accel_sigma_mps2 = 0.0;
+  const auto tied = run(seq, tied_options);
+  WindowOptions one_orientation = tied_options;
   one_orientation.vision_rotation_sigma_rad = 0.0;
   const auto untied = run(seq, one_orientation);
   expectAllFinite(tied);
@@ -795,7 +799,9 @@ TEST(WindowCore, TheAccelerometerHoldsTheTiltAVisionDriftWouldTake) {
     }
     return std::pair(last, worst);
   };
-  const auto without = run(seq);
+  WindowOptions no_accel;
+  no_accel.accel_sigma_mps2 = 0.0;
+  const auto without = run(seq, no_accel);
   WindowOptions with_accel;
   with_accel.accel_sigma_mps2 = 0.01;
   with_accel.accel_position_sigma_m = 0.0005;
@@ -958,11 +964,14 @@ TEST(WindowCore, FullRefinementMatchesTheOnlineWindow) {
   // the gyro and the scans fed up to an image's time on the gyro clock when the offset found is
   // negative (these straight drives leave it loose by some milliseconds), the online window with
   // anchor factors gained (seed 4: 0.029 -> 0.017 m) and its batch lost (seeds 3 and 4: 0.017 ->
-  // 0.024 and 0.018 -> 0.033 m): 0.0674 / 0.1103 m (anchors/anchors). The bounds hold those
-  // ratios (a known weakness of the batch's anchor factors over 40-frame tracks, not a target).
+  // 0.024 and 0.018 -> 0.033 m): 0.0674 / 0.1103 m (anchors/anchors). With the accelerometer's
+  // tilt factors (issue 60, in both) the online window gained again and the batch did not:
+  // 0.0596 / 0.0783 m (anchors/anchors), 0.0498 / 0.0947 m (steps/anchors, 1.90), 0.0498 /
+  // 0.0575 m (steps/steps, 1.15). The bounds hold those ratios with a tenth to spare (a known
+  // weakness of the batch's anchor factors over 40-frame tracks, not a target).
   for (const Models m : {Models{false, false, "anchors/anchors", 1.8, 2.0},
-                         Models{true, false, "steps/anchors", 1.9, 2.0},
-                         Models{true, true, "steps/steps", 1.2, 1.3}}) {
+                         Models{true, false, "steps/anchors", 2.1, 2.2},
+                         Models{true, true, "steps/steps", 1.3, 1.3}}) {
     SCOPED_TRACE(m.name);
     double online_sum = 0.0, full_sum = 0.0, rot_online_sum = 0.0, rot_full_sum = 0.0;
     const std::vector<std::uint32_t> seeds = {2, 3, 4, 5, 6};

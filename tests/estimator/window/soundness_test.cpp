@@ -553,7 +553,9 @@ TEST(WindowGauge, TheHessianHasExactlyTheRigidMotionsAsItsNullSpace) {
   ASSERT_TRUE(core.initialized());
   auto& map = const_cast<WindowMap&>(core.map());
   const WindowGauge no_gauge;
-  const auto factors = buildFactors(windowKeyframes(core), map.landmarks, core.model(), no_gauge);
+  ASSERT_TRUE(usesAccel(core.model()) && map.gravity_set);
+  const auto factors = buildFactors(windowKeyframes(core), map.landmarks, core.model(), no_gauge,
+                                    nullptr, nullptr, nullptr, map.gravity);
   const auto quats = quaternionBlocks(core);
   // Tangent layout of every block.
   std::map<const double*, int> offset;
@@ -577,9 +579,23 @@ TEST(WindowGauge, TheHessianHasExactlyTheRigidMotionsAsItsNullSpace) {
     row += f.cost->num_residuals();
   }
   // The six rigid motions in the tangent spaces: Ceres turns q on the left by half-angles
-  // (q <- [d, 1] q: d = w / 2 for a world rotation w), positions move by t + w x p; inverse
-  // depths and biases (and everything anchor-relative) stay.
+  // (q <- [d, 1] q: d = w / 2 for a world rotation w), positions move by t + w x p, gravity's
+  // direction in W by w x g (its angles' derivative, numerically); inverse depths and biases
+  // (and everything anchor-relative) stay.
+  Eigen::Matrix<double, 2, 3> gravity_turn;
+  {
+    const Vec3 down = factors::gravityDirection(map.gravity);
+    for (int i = 0; i < 3; ++i) {
+      const double eps = 1e-7;
+      double turned[factors::kGravityStateSize];
+      factors::setGravityDirection(so3::exp(eps * Vec3::Unit(i)) * down, turned);
+      gravity_turn.col(i) =
+          Eigen::Vector2d(turned[0] - map.gravity[0], turned[1] - map.gravity[1]) / eps;
+    }
+  }
   Eigen::MatrixXd N = Eigen::MatrixXd::Zero(n, 6);
+  ASSERT_TRUE(offset.count(map.gravity)) << "no accelerometer factor in the window";
+  N.block<2, 3>(offset[map.gravity], 3) = gravity_turn;
   for (const auto& kf : core.map().keyframes) {
     const Vec3 p(kf->p_W_B[0], kf->p_W_B[1], kf->p_W_B[2]);
     for (const double* q : {kf->q_W_B, kf->q_W_G})
