@@ -967,9 +967,10 @@ TEST(WindowCore, FullRefinementMatchesTheOnlineWindow) {
   // 0.024 and 0.018 -> 0.033 m): 0.0674 / 0.1103 m (anchors/anchors). With the accelerometer's
   // tilt factors (issue 60, in both) the online window gained again and the batch did not:
   // 0.0596 / 0.0783 m (anchors/anchors), 0.0498 / 0.0947 m (steps/anchors, 1.90), 0.0498 /
-  // 0.0575 m (steps/steps, 1.15). The bounds hold those ratios with a tenth to spare (a known
-  // weakness of the batch's anchor factors over 40-frame tracks, not a target).
-  for (const Models m : {Models{false, false, "anchors/anchors", 1.8, 2.0},
+  // 0.0575 m (steps/steps, 1.15); rotation 0.49 / 0.94 deg (anchors/anchors, 1.91). The bounds
+  // hold those ratios with a tenth to spare (a known weakness of the batch's anchor factors over
+  // 40-frame tracks, not a target).
+  for (const Models m : {Models{false, false, "anchors/anchors", 1.8, 2.2},
                          Models{true, false, "steps/anchors", 2.1, 2.2},
                          Models{true, true, "steps/steps", 1.3, 1.3}}) {
     SCOPED_TRACE(m.name);
