@@ -200,7 +200,8 @@ bool Odometry::addGyro(const GyroSample& sample) {
   if (m.finished || (m.any_gyro && sample.t_ns <= m.last_gyro)) return false;
   m.any_gyro = true;
   m.last_gyro = sample.t_ns;
-  const ImuSample s{sample.t_ns, Vec3(sample.wx, sample.wy, sample.wz), Vec3::Zero()};
+  const ImuSample s{sample.t_ns, Vec3(sample.wx, sample.wy, sample.wz),
+                    Vec3(sample.ax, sample.ay, sample.az)};
   if (m.pipeline) return m.pipeline->addGyro(s);
   if (!m.setup.has_gyro) return true;
   // Images waiting since before this sample: the sample is the first at or after them.

@@ -38,10 +38,13 @@ struct Pose {
   bool is_keyframe = false;
 };
 
-/// One gyro sample in the body frame [rad/s].
+/// One IMU sample in the body frame: the gyro [rad/s] and, where the IMU has one, the accelerometer.
 struct GyroSample {
   std::int64_t t_ns = 0;
   double wx = 0, wy = 0, wz = 0;
+  /// The IMU's accelerometer at the same time, specific force in the body frame, m/s^2 (the
+  /// window's tilt reference, window.accel_sigma_mps2); all three 0: a gyro without one.
+  double ax = 0, ay = 0, az = 0;
 };
 
 /// One planar LiDAR scan in the LiDAR frame (sensor_msgs/LaserScan): beam i at angle

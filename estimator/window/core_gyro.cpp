@@ -144,8 +144,12 @@ void WindowCore::refreshGyroFactors() {
   for (std::size_t k = 1; k < map_.keyframes.size(); ++k) {
     Keyframe& kf = *map_.keyframes[k];
     const Keyframe& prev = *map_.keyframes[k - 1];
+    // Samples that came after the keyframe (the online mode's gyro queue behind the frames): its
+    // accelerometer interval, at the bias its gyro factor was made with (as it would have been
+    // made had they come in time).
     if (usesAccel(model_) && !kf.accel_from_prev && kf.preint_from_prev)
-      kf.accel_from_prev = accelInterval(prev.t_ns, kf.t_ns, prev.bias());
+      kf.accel_from_prev =
+          accelInterval(prev.t_ns, kf.t_ns, kf.preint_from_prev->biasLinearization());
     auto& pi = kf.preint_from_prev;
     if (!pi) continue;
     const Timestamp shift = gyroShift();

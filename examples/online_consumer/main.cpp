@@ -110,7 +110,13 @@ int main(int argc, char** argv) {
         odometry.addScan(scan);
       } else {
         const auto& r = gyro[e.row];
-        odometry.addGyro({e.t_ns, std::stod(r[1]), std::stod(r[2]), std::stod(r[3])});
+        ovo::GyroSample s{e.t_ns, std::stod(r[1]), std::stod(r[2]), std::stod(r[3])};
+        if (r.size() >= 7) {  // the accelerometer's columns (EuRoC's imu0/data.csv)
+          s.ax = std::stod(r[4]);
+          s.ay = std::stod(r[5]);
+          s.az = std::stod(r[6]);
+        }
+        odometry.addGyro(s);
       }
     }
     odometry.finish();
