@@ -74,10 +74,11 @@ void WindowCore::setGravity() {
   if (map_.gravity_set || !usesAccel(model_)) return;
   for (const auto& kf : map_.keyframes) {
     if (!kf->accel_from_prev) continue;
-    // The specific force's mean over the interval, in the keyframe's frame (the rise is in it, the
-    // fall in the previous keyframe's: near enough for a start).
+    // The specific force's mean over the interval (the two weights add up to one), in the
+    // keyframe's frame (the rise is in it, the fall in the previous keyframe's: near enough for a
+    // start).
     const factors::AccelInterval& a = *kf->accel_from_prev;
-    const Vec3 f_B = 2.0 / a.dt_s * (a.rise_B1 + a.fall_B0) * 0.5;
+    const Vec3 f_B = (a.rise_B1 + a.fall_B0) / a.dt_s;
     if (!(f_B.norm() > 1.0)) continue;
     factors::setGravityDirection(-(kf->bodyPose().linear() * f_B), map_.gravity);
     map_.gravity_set = true;
@@ -144,14 +145,15 @@ void WindowCore::refreshGyroFactors() {
   for (std::size_t k = 1; k < map_.keyframes.size(); ++k) {
     Keyframe& kf = *map_.keyframes[k];
     const Keyframe& prev = *map_.keyframes[k - 1];
-    // Samples that came after the keyframe (the online mode's gyro queue behind the frames): its
-    // accelerometer interval, at the bias its gyro factor was made with (as it would have been
-    // made had they come in time).
-    if (usesAccel(model_) && !kf.accel_from_prev && kf.preint_from_prev)
-      kf.accel_from_prev =
-          accelInterval(prev.t_ns, kf.t_ns, kf.preint_from_prev->biasLinearization());
     auto& pi = kf.preint_from_prev;
     if (!pi) continue;
+    // The keyframe's accelerometer interval is made again with its gyro factor, from the same
+    // samples at the same bias: when the time offset moved (a camera 40 ms early would otherwise
+    // compare the positions with the specific force of another 40 ms), and when late samples
+    // fill the interval.
+    const auto remakeAccel = [&] {
+      kf.accel_from_prev = accelInterval(prev.t_ns, kf.t_ns, pi->biasLinearization());
+    };
     const Timestamp shift = gyroShift();
     // The time offset has moved on since the preintegration was made: its factor's first-order
     // shift (the rates at the ends held) is good for a few ms of angular acceleration, so the
@@ -160,10 +162,7 @@ void WindowCore::refreshGyroFactors() {
     if (shifted && gyro_.reaches(prev.t_ns - shift) && gyro_.covers(kf.t_ns - shift)) {
       if (auto again = preintegrate(prev.t_ns, kf.t_ns, pi->biasLinearization()))
         pi = std::make_shared<factors::GyroPreintegration>(std::move(*again));
-      // The accelerometer's interval moves with it (a camera 40 ms early would otherwise compare
-      // the positions with the specific force of another 40 ms).
-      if (usesAccel(model_))
-        kf.accel_from_prev = accelInterval(prev.t_ns, kf.t_ns, pi->biasLinearization());
+      remakeAccel();
       continue;
     }
     if (pi->status() == factors::GyroPreintegration::Status::kOk || !gyro_.covers(kf.t_ns - shift))
@@ -171,8 +170,10 @@ void WindowCore::refreshGyroFactors() {
     // Samples that came late (the online mode's gyro queue behind the frames): the gap the
     // preintegration was made with may be filled now.
     auto again = preintegrate(prev.t_ns, kf.t_ns, pi->biasLinearization());
-    if (again && again->status() == factors::GyroPreintegration::Status::kOk)
+    if (again && again->status() == factors::GyroPreintegration::Status::kOk) {
       pi = std::make_shared<factors::GyroPreintegration>(std::move(*again));
+      remakeAccel();
+    }
   }
 }
 
