@@ -18,6 +18,7 @@
 #include "camera/calib_io.hpp"
 #include "common/config.hpp"
 #include "common/error.hpp"
+#include "common/so3.hpp"
 #include "estimator/estimator.hpp"
 #include "io/bag_dataset.hpp"
 #include "io/dataset.hpp"
@@ -40,6 +41,39 @@ Pose toPose(const StampedPose& p, bool tracked, bool keyframe) {
 
 Pose toPose(const estimator::FrameEstimate& f) {
   return toPose({f.t_ns, f.T_W_B}, f.tracked, f.is_keyframe);
+}
+
+/// Poses further apart than this give no twist (a gap: the change is no velocity).
+constexpr Timestamp kMaxTwistGapNs = 1'000'000'000;
+
+/// p's twist in its body frame from the previous pose of its stream: v_B = R^T (p - p_prev) / dt,
+/// w_B = Log(R_prev^T R) / dt.
+void setTwist(Pose& p, const Pose& prev) {
+  const Timestamp dt_ns = p.t_ns - prev.t_ns;
+  if (dt_ns <= 0 || dt_ns > kMaxTwistGapNs) return;
+  const double dt = toSeconds(dt_ns);
+  const auto rotation = [](const Pose& x) {
+    const auto& q = x.orientation_xyzw;
+    return Quat(q[3], q[0], q[1], q[2]).normalized().toRotationMatrix();
+  };
+  const Mat3 R = rotation(p), R_prev = rotation(prev);
+  const Vec3 dp = Vec3(p.position_m[0], p.position_m[1], p.position_m[2]) -
+                  Vec3(prev.position_m[0], prev.position_m[1], prev.position_m[2]);
+  const Vec3 v = R.transpose() * dp / dt;
+  const Vec3 w = so3::log(R_prev.transpose() * R) / dt;
+  p.velocity_body_mps = {v.x(), v.y(), v.z()};
+  p.angular_velocity_body_radps = {w.x(), w.y(), w.z()};
+}
+
+bool finite(const GyroSample& s) {
+  return std::isfinite(s.wx) && std::isfinite(s.wy) && std::isfinite(s.wz) &&
+         std::isfinite(s.ax) && std::isfinite(s.ay) && std::isfinite(s.az);
+}
+
+bool finite(const Scan& s) {
+  return std::isfinite(s.angle_min_rad) && std::isfinite(s.angle_increment_rad) &&
+         std::isfinite(s.time_increment_s) && !std::isnan(s.range_min_m) &&
+         !std::isnan(s.range_max_m);
 }
 
 estimator::SensorSetup setupFromRig(const std::filesystem::path& rig_file,
@@ -110,6 +144,7 @@ struct Odometry::Impl {
   mutable std::mutex mutex;
   std::vector<Pose> poses;  // as update() returned them (the recent past without the trajectory)
   bool keep_trajectory = true;
+  Status status;  // under mutex; frames_dropped and error are read from the pipeline
 
   void process(const Item& item) {
     if (const auto* scan = std::get_if<LidarScan>(&item)) {
@@ -117,19 +152,43 @@ struct Odometry::Impl {
       return;
     }
     const auto& [t, grey] = std::get<std::pair<Timestamp, cv::Mat>>(item);
-    deliver(toPose(est->addImage(t, grey)));
+    deliver(est->addImage(t, grey));
   }
-  void deliver(Pose p) {
+  // On the thread that runs the estimator (the caller's offline, the pipeline's live).
+  void deliver(const estimator::FrameEstimate& f) {
+    Pose p = toPose(f);
     p.t_ns += image_shift_ns;
+    // The estimator's counters when they may have changed: a keyframe's solve, a change of state.
+    std::optional<estimator::EstimatorStats> stats;
+    if (f.is_keyframe || processed == 0 || f.tracked != status.tracking) stats = est->stats();
     {
       std::lock_guard lock(mutex);
+      ++processed;
+      status.frames_processed = processed;
+      status.tracking = f.tracked;
+      status.reason = f.tracked ? std::string() : f.status;
+      status.frame_ms = f.frontend_ms + f.estimator_ms;
+      if (f.is_keyframe) status.solve_ms = f.estimator_ms;
+      if (stats) {
+        status.tracking_losses = stats->tracking_losses;
+        status.solve_failures = stats->solve_failures;
+        status.time_offset_s = setup.time_offset_s + stats->time_offset_s.value_or(0.0);
+        status.time_offset_estimated = stats->time_offset_s.has_value();
+      }
+      p.t_gyro_clock_ns = f.t_ns - fromSeconds(status.time_offset_s - setup.time_offset_s);
+      if (!poses.empty()) setTwist(p, poses.back());
       poses.push_back(p);
       if (!keep_trajectory)
         estimator::trimHistory(poses, p.t_ns - fromSeconds(estimator::kRecentHistoryS),
                                [](const Pose& q) { return q.t_ns; });
-      ++processed;
     }
     if (on_pose) on_pose(p);
+  }
+  // A measurement not taken (status().refused).
+  bool refuse() {
+    std::lock_guard lock(mutex);
+    ++status.refused;
+    return false;
   }
   // Offline: processes the waiting items in order up to the first image whose measurements run
   // past `t_gyro` (all images when nullopt). Scans after the last image wait for the next one; at
@@ -164,11 +223,12 @@ Odometry::Odometry(const std::string& rig_file, const OdometryOptions& options,
   config.checkAllUsed();
   impl_->on_pose = std::move(on_pose);
   impl_->realtime = options.realtime;
+  impl_->status.time_offset_s = impl_->setup.time_offset_s;
   if (options.realtime) {
     app::OnlineOptions online;
     if (!options.keep_trajectory) online.latency_history = app::kLongRunLatencyHistory;
     impl_->pipeline.emplace(*impl_->est, online, [impl = impl_.get()](const app::OnlineOutput& o) {
-      impl->deliver(toPose(o.estimate));
+      impl->deliver(o.estimate);
     });
     impl_->pipeline->start();
   }
@@ -183,12 +243,12 @@ Odometry::~Odometry() {
 
 bool Odometry::addImage(std::int64_t t_ns, const cv::Mat& image) {
   Impl& m = *impl_;
-  if (m.finished || (m.any_image && t_ns <= m.last_image)) return false;
+  if (m.finished || (m.any_image && t_ns <= m.last_image)) return m.refuse();
   cv::Mat grey = toGrey(image, m.setup.camera);
   m.any_image = true;
   m.last_image = t_ns;
   const Timestamp t_gyro_clock = t_ns - m.image_shift_ns;
-  if (m.pipeline) return m.pipeline->addImage(t_gyro_clock, grey);
+  if (m.pipeline) return m.pipeline->addImage(t_gyro_clock, grey) || m.refuse();
   m.waiting.emplace_back(std::pair<Timestamp, cv::Mat>(t_gyro_clock, std::move(grey)));
   if (!m.setup.has_gyro || (m.any_gyro && m.last_gyro >= m.est->measurementsUntil(t_gyro_clock)))
     m.drain(std::nullopt);
@@ -197,12 +257,13 @@ bool Odometry::addImage(std::int64_t t_ns, const cv::Mat& image) {
 
 bool Odometry::addGyro(const GyroSample& sample) {
   Impl& m = *impl_;
-  if (m.finished || (m.any_gyro && sample.t_ns <= m.last_gyro)) return false;
+  if (m.finished || (m.any_gyro && sample.t_ns <= m.last_gyro) || !finite(sample))
+    return m.refuse();
   m.any_gyro = true;
   m.last_gyro = sample.t_ns;
   const ImuSample s{sample.t_ns, Vec3(sample.wx, sample.wy, sample.wz),
                     Vec3(sample.ax, sample.ay, sample.az)};
-  if (m.pipeline) return m.pipeline->addGyro(s);
+  if (m.pipeline) return m.pipeline->addGyro(s) || m.refuse();
   if (!m.setup.has_gyro) return true;
   // Images waiting since before this sample: the sample is the first at or after them.
   m.est->addGyro(s);
@@ -212,11 +273,11 @@ bool Odometry::addGyro(const GyroSample& sample) {
 
 bool Odometry::addScan(const Scan& scan) {
   Impl& m = *impl_;
-  if (m.finished || (m.any_scan && scan.t_ns <= m.last_scan)) return false;
+  if (m.finished || (m.any_scan && scan.t_ns <= m.last_scan) || !finite(scan)) return m.refuse();
   m.any_scan = true;
   m.last_scan = scan.t_ns;
   LidarScan s = toScan(scan);
-  if (m.pipeline) return m.pipeline->addScan(s);
+  if (m.pipeline) return m.pipeline->addScan(s) || m.refuse();
   if (!m.setup.has_lidar) return true;
   // Before the first waiting image whose measurements reach its time, after the gyro that image
   // waits for (as the offline runner feeds scans).
@@ -263,6 +324,8 @@ std::vector<Pose> Odometry::trajectory() const {
     while (j < m.poses.size() && m.poses[j].t_ns < image_t) ++j;
     const bool known = j < m.poses.size() && m.poses[j].t_ns == image_t;
     out.push_back(toPose(p, known && m.poses[j].tracked, known && m.poses[j].is_keyframe));
+    out.back().t_gyro_clock_ns = p.t_ns;
+    if (out.size() > 1) setTwist(out.back(), out[out.size() - 2]);
   }
   return out;
 }
@@ -274,6 +337,19 @@ int Odometry::framesProcessed() const {
 
 int Odometry::framesDropped() const {
   return impl_->pipeline ? impl_->pipeline->framesDropped() : 0;
+}
+
+Status Odometry::status() const {
+  Status s;
+  {
+    std::lock_guard lock(impl_->mutex);
+    s = impl_->status;
+  }
+  if (impl_->pipeline) {
+    s.frames_dropped = impl_->pipeline->framesDropped();
+    s.error = impl_->pipeline->error();
+  }
+  return s;
 }
 
 }  // namespace ovo

@@ -32,10 +32,42 @@ struct Pose {
   /// image was taken on the gyro's clock: the stamp minus the rig's camera.time_offset_s and,
   /// for the window, minus its own estimate on top of it.
   std::int64_t t_ns = 0;
+  /// The time the pose holds on the gyro's (the robot's) clock, what a ROS message's stamp is: the
+  /// callback's t_ns less the rig's camera.time_offset_s and, for the window, its own estimate so
+  /// far; trajectory()'s t_ns.
+  std::int64_t t_gyro_clock_ns = 0;
   std::array<double, 3> position_m{0, 0, 0};           // of B in W
   std::array<double, 4> orientation_xyzw{0, 0, 0, 1};  // rotation B -> W (Hamilton quaternion)
   bool tracked = false;  // false: held or propagated (lost, standing still, starting up)
   bool is_keyframe = false;
+  /// The body's velocity [m/s] and angular velocity [rad/s] in its own frame B (a twist as
+  /// nav_msgs/Odometry has it): the change from the previous pose of the same stream (the
+  /// callback's or trajectory()'s) over the time between them; zero for the first pose and after
+  /// a gap of more than a second.
+  std::array<double, 3> velocity_body_mps{0, 0, 0};
+  std::array<double, 3> angular_velocity_body_radps{0, 0, 0};
+};
+
+/// How the run is going (a ROS node's diagnostics, a robot's health monitor). Thread-safe to read
+/// at any time; the figures are those of the latest frame processed.
+struct Status {
+  int frames_processed = 0;
+  int frames_dropped = 0;  // realtime: images dropped because processing was behind
+  /// Measurements not taken: not after the previous one of their kind, a non-finite value (gyro,
+  /// accelerometer, a scan's angles or stamps), or after finish().
+  int refused = 0;
+  bool tracking = false;  // the latest frame's pose came from the camera
+  std::string reason;     // why not, when not ("low_parallax", "too_few_matches", ...)
+  int tracking_losses = 0;
+  double frame_ms = 0.0;  // the latest frame's processing time (frontend and estimator), ms
+  double solve_ms = 0.0;  // the latest keyframe's estimator time (the window's solve), ms
+  int solve_failures = 0;  // window: solves whose states were restored (see ovo run's metrics)
+  /// The camera-gyro offset in use, s (image stamp minus its time on the gyro clock): the rig's
+  /// camera.time_offset_s plus, for the window, its own estimate on top.
+  double time_offset_s = 0.0;
+  bool time_offset_estimated = false;
+  /// realtime: what stopped the processing threads (finish() rethrows it); empty while all is well.
+  std::string error;
 };
 
 /// One IMU sample in the body frame: the gyro [rad/s] and, where the IMU has one, the accelerometer.
@@ -95,8 +127,8 @@ class Odometry {
   Odometry(const Odometry&) = delete;
   Odometry& operator=(const Odometry&) = delete;
 
-  /// Returns false (and ignores it) for a measurement not after the previous one of its kind, or
-  /// after finish(). addImage throws for an image that is not 8-bit grey, BGR or BGRA, or not of
+  /// Returns false (and ignores it, counted in status().refused) for a measurement not after the
+  /// previous one of its kind, with a non-finite value, or after finish(). addImage throws for an image that is not 8-bit grey, BGR or BGRA, or not of
   /// the calibration's size.
   bool addImage(std::int64_t t_ns, const cv::Mat& image);
   bool addGyro(const GyroSample& sample);
@@ -110,6 +142,7 @@ class Odometry {
   /// Images processed, and dropped (realtime only).
   int framesProcessed() const;
   int framesDropped() const;
+  Status status() const;
 
  private:
   struct Impl;

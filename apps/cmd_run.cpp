@@ -59,8 +59,9 @@ struct RunArgs {
 
 // What `ovo run --out` writes: an existing folder holding only these is an earlier run's output
 // and may be replaced; anything else there is refused.
-const std::set<std::string> kRunOutputNames = {"trajectory.txt", "keyframes.txt", "gyro_bias.csv",
-                                               "metrics.json",   "config.yaml",   "report.html"};
+const std::set<std::string> kRunOutputNames = {
+    "trajectory.txt", "trajectory_online.txt", "keyframes.txt", "gyro_bias.csv",
+    "metrics.json",   "config.yaml",           "report.html"};
 
 // The scan nearest in time to t_ns (null when there is none).
 const LidarScan* nearestScan(const std::vector<LidarScan>& scans, Timestamp t_ns) {
@@ -256,6 +257,12 @@ int runRun(const RunArgs& args) {
   if (out) {
     const std::filesystem::path& tmp = out->staging();
     io::writeTum(tmp / "trajectory.txt", trajectory);
+    // Each frame's pose as it went out (what a live robot had then; trajectory.txt is the final
+    // estimate, which the window and --refine move after the frame).
+    Trajectory online;
+    online.reserve(frames.size());
+    for (const auto& f : frames) online.push_back({f.t_ns, f.T_W_B});
+    io::writeTum(tmp / "trajectory_online.txt", online);
     io::writeTum(tmp / "keyframes.txt", est->keyframes());
     const auto bias_history = est->biasHistory();
     if (!bias_history.empty()) io::writeGyroBiasCsv(tmp / "gyro_bias.csv", bias_history);

@@ -276,4 +276,20 @@ int OnlinePipeline::framesDropped() const {
   return stats_.frames_dropped;
 }
 
+std::string OnlinePipeline::error() const {
+  std::exception_ptr error;
+  {
+    std::lock_guard lock(mutex_);
+    error = error_;
+  }
+  if (!error) return {};
+  try {
+    std::rethrow_exception(error);
+  } catch (const std::exception& e) {
+    return e.what();
+  } catch (...) {
+    return "unknown error";
+  }
+}
+
 }  // namespace ovo::app

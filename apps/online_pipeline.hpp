@@ -23,6 +23,7 @@
 #include <memory>
 #include <mutex>
 #include <opencv2/core.hpp>
+#include <string>
 #include <thread>
 #include <vector>
 
@@ -111,6 +112,9 @@ class OnlinePipeline {
   OnlineStats stats() const;
   /// stats().frames_dropped without copying the latencies (cheap enough to call every frame).
   int framesDropped() const;
+  /// The message of the exception that stopped the threads (stop() rethrows it); empty while none
+  /// did.
+  std::string error() const;
 
  private:
   using Clock = std::chrono::steady_clock;

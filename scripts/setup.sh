@@ -5,15 +5,16 @@
 #                           ovo on it and show a short summary (the first result in minutes)
 #   scripts/setup.sh test   build everything and run the whole test suite (ctest)
 #   scripts/setup.sh build  only install and build everything
+#   scripts/setup.sh ros    also install Debian's ROS 1 packages and build the node (build/ros/ovo_ros)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 ROOT=$(pwd)
 MODE=${1:-build}
 JOBS=${OVO_JOBS:-$(nproc)}
 case "$MODE" in
-  build | run | test) ;;
+  build | run | test | ros) ;;
   *)
-    echo "usage: scripts/setup.sh [build|run|test]" >&2
+    echo "usage: scripts/setup.sh [build|run|test|ros]" >&2
     exit 2
     ;;
 esac
@@ -28,6 +29,12 @@ PACKAGES=(build-essential cmake ninja-build ccache pkg-config
 # Only the test command needs a browser (report.html is rendered in headless Chromium; the test
 # skips without it).
 if [ "$MODE" = test ]; then PACKAGES+=(chromium); fi
+# The ROS 1 node (ros/) and its end-to-end test (a master, roslaunch, rosbag play and record):
+# Debian 12's ROS 1 packages, about 110 small packages.
+ROS_PACKAGES=(libroscpp-dev libtf2-ros-dev libtf2-msgs-dev libnav-msgs-dev libgeometry-msgs-dev
+  libdiagnostic-msgs-dev ros-core-dev python3-roslaunch python3-rosbag python3-rostopic)
+if [ "$MODE" = test ] || [ "$MODE" = ros ]; then PACKAGES+=("${ROS_PACKAGES[@]}"); fi
+if [ "$MODE" = ros ]; then PACKAGES+=(rviz); fi  # the viewer (Qt, OGRE): not for the tests
 
 missing=()
 for p in "${PACKAGES[@]}"; do
@@ -47,6 +54,11 @@ export POCL_CACHE_DIR=${POCL_CACHE_DIR:-${XDG_CACHE_HOME:-$HOME/.cache}/ovo-pocl
 mkdir -p "$POCL_CACHE_DIR"
 
 BUILD=${OVO_BUILD_DIR:-$ROOT/build}
+# A build configured before ROS was installed does not have the node: configure again.
+if [ -f "$BUILD/build.ninja" ] && { [ "$MODE" = test ] || [ "$MODE" = ros ]; } &&
+  ! grep -q "ovo_ros" "$BUILD/build.ninja"; then
+  cmake "$BUILD" >"$BUILD/configure.log" 2>&1 || { cat "$BUILD/configure.log" >&2; exit 1; }
+fi
 if [ ! -f "$BUILD/build.ninja" ]; then
   echo "ovo setup: configuring $BUILD (Release)"
   mkdir -p "$BUILD"
@@ -69,6 +81,10 @@ case "$MODE" in
     ;;
   build)
     cmake --build "$BUILD" -j "$JOBS"
+    ;;
+  ros)
+    cmake --build "$BUILD" -j "$JOBS" --target ovo ovo_ros
+    echo "ovo setup: the node is $BUILD/ros/ovo_ros (README: On a robot: the ROS 1 node)"
     ;;
   test)
     cmake --build "$BUILD" -j "$JOBS"

@@ -16,13 +16,16 @@
 
 namespace ovo::test {
 
-inline std::filesystem::path simulatedRow(int duration_s) {
+/// The first duration_s of configs/sim/<scenario>.yaml (vineyard_row: a straight row; headland_turn:
+/// a row, then a U-turn from 9 s on).
+inline std::filesystem::path simulatedRow(int duration_s,
+                                          const std::string& scenario = "vineyard_row") {
   namespace fs = std::filesystem;
   const fs::path bin = ovoBinaryPath();
   const auto stamp = fs::last_write_time(bin).time_since_epoch().count();
   const fs::path cache = bin.parent_path() / "test_cache";
-  const fs::path row =
-      cache / ("simulated_row_" + std::to_string(duration_s) + "s_" + std::to_string(stamp));
+  const std::string name = scenario == "vineyard_row" ? "simulated_row_" : "simulated_" + scenario + "_";
+  const fs::path row = cache / (name + std::to_string(duration_s) + "s_" + std::to_string(stamp));
   if (fs::exists(row / "done")) return row;
   fs::create_directories(cache);
   const int lock = ::open((cache / "lock").c_str(), O_CREAT | O_RDWR, 0644);
@@ -31,7 +34,7 @@ inline std::filesystem::path simulatedRow(int duration_s) {
     const fs::path tmp = row.string() + ".tmp" + std::to_string(::getpid());
     std::string output;
     const std::string cmd = "'" + bin.string() + "' simulate --config '" +
-                            sourcePath("configs/sim/vineyard_row.yaml").string() + "' --out '" +
+                            sourcePath("configs/sim/" + scenario + ".yaml").string() + "' --out '" +
                             tmp.string() +
                             "' --overwrite --set duration_s=" + std::to_string(duration_s);
     if (runShell(cmd, cache, &output) != 0) {

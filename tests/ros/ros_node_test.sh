@@ -1,0 +1,206 @@
+#!/usr/bin/env bash
+# ovo_ros end to end on a real ROS 1 master (ctest label "ros"; exits 77, a skip, with a message
+# where ROS 1 or the node is absent):
+#   1. the node refuses a missing rig file, a bad one and no ~rig, with a message naming what is
+#      wrong and a non-zero exit;
+#   2. roslaunch ovo ovo.launch on a simulated vineyard_row bag played at its rate: the published
+#      odometry's ATE within 1.2x of `ovo run --realtime`'s on the same bag (its poses as they went
+#      out, trajectory_online.txt: the node publishes each frame's pose once; the mean of two runs
+#      of each), the TF odom -> base_link with every pose, the path, the diagnostics, no NaN, no
+#      tracking loss;
+#   3. the same bag at 3x, every topic silent for 6 s after its first 20 s and the IMU alone for 6 s
+#      on a straight stretch later: the diagnostics say frames were dropped and which topics went
+#      silent, the odometry goes on after each silence, no NaN, tracking at the end. (At 3x this
+#      machine drops two frames in three, and the window loses the camera for a few frames in some
+#      runs: a loss is allowed here if it is recovered; docs/ros.md gives the figures.)
+# The node's CPU and `ovo run --realtime`'s are printed (not checked: no timed assertions).
+#
+#   tests/ros/ros_node_test.sh BUILD_DIR [WORK_DIR]
+set -euo pipefail
+SRC=$(cd "$(dirname "$0")/../.." && pwd)
+BUILD=$(cd "${1:?usage: ros_node_test.sh BUILD_DIR [WORK_DIR]}" && pwd)
+NODE=$BUILD/ros/ovo_ros
+OVO=${OVO_BIN:-$BUILD/ovo}
+PY=/usr/bin/python3  # Debian's, which has the rosbag module
+
+skip() { echo "SKIP: $*"; exit 77; }
+[ -x "$NODE" ] || skip "ovo_ros is not built (ROS 1's development packages were absent at configure time; scripts/setup.sh test installs them)"
+for tool in roscore roslaunch rosbag rostopic; do
+  command -v "$tool" >/dev/null || skip "$tool not found (Debian's python3-roslaunch, python3-rosbag, python3-rostopic)"
+done
+"$PY" -c "import rosbag" 2>/dev/null || skip "$PY cannot import rosbag (Debian's python3-rosbag)"
+
+WORK=${2:-$(mktemp -d /tmp/ovo_ros_test.XXXXXX)}
+mkdir -p "$WORK"
+PIDS=()
+cleanup() {
+  for pid in "${PIDS[@]}"; do kill -INT -- "-$pid" 2>/dev/null || true; done
+  sleep 1
+  for pid in "${PIDS[@]}"; do kill -KILL -- "-$pid" 2>/dev/null || true; done
+}
+trap cleanup EXIT
+fail() { echo "FAIL: $*"; exit 1; }
+# start NAME command...: in its own process group (so that it and its children can be stopped),
+# output in WORK/NAME.log; the group's id in LAST_PID.
+start() {
+  local name=$1; shift
+  setsid "$@" >"$WORK/$name.log" 2>&1 &
+  LAST_PID=$!
+  PIDS+=("$LAST_PID")
+}
+# stop PID: SIGINT (a node ends its run), then wait for it (at most 60 s).
+stop() {
+  kill -INT -- "-$1" 2>/dev/null || true
+  for _ in $(seq 600); do kill -0 "$1" 2>/dev/null || return 0; sleep 0.1; done
+  kill -KILL -- "-$1" 2>/dev/null || true
+}
+# cpu_s PID: user + system CPU of the process so far, s.
+cpu_s() { awk -v hz="$(getconf CLK_TCK)" '{print ($14 + $15) / hz}' "/proc/$1/stat"; }
+json() { "$PY" -c "import json,sys; print(json.load(open(sys.argv[1]))$2)" "$1"; }
+
+export POCL_CACHE_DIR=${POCL_CACHE_DIR:-$HOME/.cache/ovo-pocl}
+export ROS_HOME=$WORK/ros_home ROS_LOG_DIR=$WORK/ros_home/log ROS_HOSTNAME=127.0.0.1
+export ROS_PACKAGE_PATH=$BUILD/ros
+PORT=$("$PY" -c "import socket; s = socket.socket(); s.bind(('127.0.0.1', 0)); print(s.getsockname()[1])")
+export ROS_MASTER_URI=http://127.0.0.1:$PORT
+mkdir -p "$ROS_LOG_DIR"
+
+DATA=$WORK/row
+if [ ! -f "$DATA/run.bag" ]; then
+  echo "simulating vineyard_row into a ROS 1 bag"
+  "$OVO" simulate --config "$SRC/configs/sim/vineyard_row.yaml" --format rosbag --out "$DATA" \
+    --overwrite >"$WORK/simulate.log" 2>&1 || { cat "$WORK/simulate.log"; fail "ovo simulate"; }
+fi
+
+echo "starting a master on port $PORT"
+start roscore roscore -p "$PORT"
+for _ in $(seq 300); do rostopic list >/dev/null 2>&1 && break; sleep 0.1; done
+rostopic list >/dev/null 2>&1 || { cat "$WORK/roscore.log"; fail "the master did not start"; }
+
+# 1. Bad set-ups: a clear message naming the problem and a non-zero exit.
+expect_refusal() {  # name, expected text, node arguments...
+  local name=$1 text=$2; shift 2
+  local rc=0
+  timeout 60 "$NODE" "__name:=ovo_$name" "$@" >"$WORK/$name.log" 2>&1 || rc=$?
+  [ "$rc" -ne 0 ] || fail "ovo_ros with $name exited 0"
+  [ "$rc" -ne 124 ] || fail "ovo_ros with $name did not exit"
+  grep -q -- "$text" "$WORK/$name.log" || { cat "$WORK/$name.log"; fail "ovo_ros with $name did not say '$text'"; }
+  echo "refused ($name, exit $rc): $(grep -m1 -- "$text" "$WORK/$name.log")"
+}
+expect_refusal no_rig "~rig"
+expect_refusal missing_rig "$WORK/missing/rig.yaml" "_rig:=$WORK/missing/rig.yaml"
+printf 'camera: {T_B_C: [1, 2, 3]}\n' >"$WORK/bad_rig.yaml"
+expect_refusal bad_rig "$WORK/bad_rig.yaml" "_rig:=$WORK/bad_rig.yaml"
+
+# A node run: roslaunch, a recorder of what it publishes, the bag played by the given commands.
+# Leaves WORK/NAME.bag, NAME.tum (the odometry), NAME.json (read_outputs.py) and NAME.cpu.
+run_node() {
+  local name=$1; shift
+  start "$name.launch" roslaunch ovo ovo.launch "rig:=$DATA/rig.yaml"
+  local launch=$LAST_PID
+  for _ in $(seq 600); do rostopic list 2>/dev/null | grep -q '^/ovo/odometry$' && break; sleep 0.1; done
+  rostopic list 2>/dev/null | grep -q '^/ovo/odometry$' ||
+    { cat "$WORK/$name.launch.log"; fail "$name: the node did not advertise /ovo/odometry"; }
+  start "$name.record" rosbag record -O "$WORK/$name.bag" /ovo/odometry /ovo/path /tf /diagnostics \
+    __name:=ovo_test_recorder
+  local record=$LAST_PID
+  for _ in $(seq 300); do
+    [ "$(rostopic info /ovo/odometry 2>/dev/null | grep -c ovo_test_recorder)" -gt 0 ] && break
+    sleep 0.1
+  done
+  "$@"
+  sleep 3  # the last frames out of the pipeline
+  local node_pid
+  node_pid=$(pgrep -f "^$NODE" | head -1 || true)
+  [ -n "$node_pid" ] || { cat "$WORK/$name.launch.log"; fail "$name: the node is not running after the bag"; }
+  cpu_s "$node_pid" >"$WORK/$name.cpu"
+  stop "$record"
+  stop "$launch"
+  "$PY" "$SRC/tests/ros/read_outputs.py" "$WORK/$name.bag" "$WORK/$name.tum" "$WORK/$name.json"
+}
+
+# 2. The bag at its rate, twice, and `ovo run --realtime` twice: a live run's poses depend on the
+# machine's timing (the window's solve has a time budget; a late frame is dropped), so that one
+# run of each may differ by more than the bound (seen here: 5.3-8.3 mm for the node, 5.4-7.4 for
+# ovo run on this bag); the means of two are compared.
+ate_of() { json "$1" "['ate']['rmse']"; }
+for k in a b; do
+  echo "playing the bag at its rate ($k)"
+  sleep 2  # the node's start-up (its estimator, OpenCL kernels) done before the bag begins
+  run_node "rate1$k" rosbag play --quiet --wait-for-subscribers "$DATA/run.bag"
+  "$OVO" eval --gt "$DATA/groundtruth.txt" --est "$WORK/rate1$k.tum" >"$WORK/rate1$k.eval.json"
+  echo "reference ($k): ovo run --realtime on the same bag"
+  "$OVO" run --dataset "$DATA/run.bag" --realtime --estimator window --out "$WORK/reference$k" \
+    --quiet >"$WORK/reference$k.log" 2>&1 || { cat "$WORK/reference$k.log"; fail "ovo run --realtime"; }
+  "$OVO" eval --gt "$DATA/groundtruth.txt" --est "$WORK/reference$k/trajectory_online.txt" \
+    >"$WORK/reference$k.eval.json"
+  echo "rate 1 ($k): $(json "$WORK/rate1$k.json" "['odometry']") poses published," \
+    "$(json "$WORK/rate1$k.json" "['frames_dropped']") frames dropped; ATE node" \
+    "$(ate_of "$WORK/rate1$k.eval.json") m, ovo run --realtime $(ate_of "$WORK/reference$k.eval.json") m" \
+    "(its final trajectory $(json "$WORK/reference$k/metrics.json" "['ate_rmse_m']") m," \
+    "$(json "$WORK/reference$k/metrics.json" "['frames_dropped']") frames dropped); CPU node" \
+    "$(cat "$WORK/rate1$k.cpu") s, ovo run --realtime" \
+    "$(json "$WORK/reference$k/metrics.json" "['timing']['cpu_s']") s"
+done
+"$PY" - "$WORK" <<'EOF' || fail "rate 1 (above)"
+import json, sys
+w = sys.argv[1]
+ate = lambda f: json.load(open(f))["ate"]["rmse"]
+node = [ate("%s/rate1%s.eval.json" % (w, k)) for k in "ab"]
+ref = [ate("%s/reference%s.eval.json" % (w, k)) for k in "ab"]
+problems = []
+for k in "ab":
+    s = json.load(open("%s/rate1%s.json" % (w, k)))
+    if s["odometry"] < 500: problems.append("%s: only %d odometry messages" % (k, s["odometry"]))
+    if s["non_finite"]: problems.append("%s: %d non-finite odometry messages" % (k, s["non_finite"]))
+    if s["odometry_frames"] != ["odom->base_link"]: problems.append("%s: frames %s" % (k, s["odometry_frames"]))
+    if s["tf_odom_base_link"] < s["odometry"]:
+        problems.append("%s: %d TFs for %d poses" % (k, s["tf_odom_base_link"], s["odometry"]))
+    if s["path_poses"] < 100: problems.append("%s: a path of %d poses" % (k, s["path_poses"]))
+    if s["diagnostics"] < 20: problems.append("%s: %d diagnostics" % (k, s["diagnostics"]))
+    if s["errors"]: problems.append("%s: diagnostic errors %s" % (k, s["errors"][:3]))
+    if s["tracking_losses"]: problems.append("%s: %d tracking losses" % (k, s["tracking_losses"]))
+mean_node, mean_ref = sum(node) / 2, sum(ref) / 2
+print("mean ATE: node %.4f m, ovo run --realtime %.4f m (x%.2f)" % (mean_node, mean_ref, mean_node / mean_ref))
+if not mean_node <= 1.2 * mean_ref:
+    problems.append("mean ATE %.4f m > 1.2 x ovo run --realtime's %.4f m" % (mean_node, mean_ref))
+for p in problems: print("  " + p)
+sys.exit(1 if problems else 0)
+EOF
+
+# 3. At 3x; every topic silent for 6 s after the first 20 s of the bag; the IMU alone silent for
+# 6 s (the camera and the LiDAR at their rate) on the straight return row, 30-36 s.
+echo "playing the bag at 3x with silences"
+sleep 2
+run_node rate3 bash -c "
+  rosbag play --quiet --wait-for-subscribers --rate 3 --duration 20 '$DATA/run.bag' && sleep 6 &&
+  rosbag play --quiet --rate 3 --start 20 --duration 10 '$DATA/run.bag' &&
+  rosbag play --quiet --start 30 --duration 6 '$DATA/run.bag' --topics /camera/image_raw /scan &&
+  rosbag play --quiet --rate 3 --start 36 '$DATA/run.bag'"
+"$OVO" eval --gt "$DATA/groundtruth.txt" --est "$WORK/rate3.tum" >"$WORK/rate3.eval.json"
+t0=$(awk '!/^#/ {print $1; exit}' "$DATA/groundtruth.txt")
+echo "rate 3: $(json "$WORK/rate3.json" "['odometry']") poses published," \
+  "$(json "$WORK/rate3.json" "['frames_dropped']") frames dropped; ATE node" \
+  "$(ate_of "$WORK/rate3.eval.json") m"
+"$PY" - "$WORK/rate3.json" "$WORK/rate3.tum" "$t0" <<'EOF' || fail "rate 3 (above)"
+import json, sys
+s = json.load(open(sys.argv[1])); t0 = float(sys.argv[3])
+stamps = [float(l.split()[0]) - t0 for l in open(sys.argv[2])]
+problems = []
+if s["frames_dropped"] <= 0: problems.append("no frames dropped at 3x (the diagnostics' count)")
+if not any("frames dropped" in w for w in s["warnings"]): problems.append("no warning of dropped frames")
+def silent(topic):
+    return any("no message on %s for %s" % (topic, n) in w for w in s["warnings"] for n in ("5.", "6."))
+if not silent("/camera/image_raw"): problems.append("no warning that the camera went silent for 5 s")
+if not silent("/imu/data"): problems.append("no warning that the IMU went silent for 5 s")
+if not any(21 < t < 29 for t in stamps): problems.append("no odometry after the first silence")
+if not any(31 < t < 35 for t in stamps): problems.append("no odometry while the IMU was silent")
+if not any(t > 38 for t in stamps): problems.append("no odometry after the IMU came back")
+if s["non_finite"]: problems.append("%d non-finite odometry messages" % s["non_finite"])
+if not s["tracking"]: problems.append("not tracking at the end")
+if s["errors"]: problems.append("diagnostic errors %s" % s["errors"][:3])
+print("rate 3: %d tracking losses (recovered)" % s["tracking_losses"])
+for p in problems: print("  " + p)
+sys.exit(1 if problems else 0)
+EOF
+echo "PASS"
