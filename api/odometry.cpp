@@ -339,6 +339,10 @@ int Odometry::framesDropped() const {
   return impl_->pipeline ? impl_->pipeline->framesDropped() : 0;
 }
 
+Pose Odometry::cameraInBody() const { return toPose({0, impl_->setup.T_B_C}, true, false); }
+
+Pose Odometry::lidarInBody() const { return toPose({0, impl_->setup.T_B_L}, true, false); }
+
 Status Odometry::status() const {
   Status s;
   {

@@ -143,6 +143,10 @@ class Odometry {
   int framesProcessed() const;
   int framesDropped() const;
   Status status() const;
+  /// The rig's sensors in the body frame (from the rig file): the camera's pose T_B_C and the
+  /// LiDAR's T_B_L, as Poses with t_ns 0 (a ROS node's static transforms).
+  Pose cameraInBody() const;
+  Pose lidarInBody() const;
 
  private:
   struct Impl;

@@ -366,6 +366,7 @@ SE3 cameraExtrinsics(const RigInfo& rig, const std::optional<SE3>& T_B_C_calib,
 }
 
 RigInfo readRigYaml(const fs::path& file) {
+  if (!fs::exists(file)) fail("rig file '{}' does not exist (expected a rig.yaml)", file.string());
   const Config cfg = Config::load(file);
   const std::string where = file.string();
   constexpr double kMin = 1e-9;  // rates, sigmas and heights must be positive

@@ -159,6 +159,13 @@ geometry_msgs::PoseStamped poseMessage(const Pose& pose, const Frames& frames) {
   return msg;
 }
 
+geometry_msgs::TransformStamped sensorTransform(const Pose& in_body, const std::string& base,
+                                                const std::string& sensor_frame) {
+  geometry_msgs::TransformStamped msg = transformMessage(in_body, {base, sensor_frame});
+  msg.header.stamp = ros::Time(0);  // static: valid at every time
+  return msg;
+}
+
 namespace {
 
 diagnostic_msgs::KeyValue keyValue(const std::string& key, const std::string& value) {

@@ -42,6 +42,10 @@ struct Frames {
 nav_msgs::Odometry odometryMessage(const Pose& pose, const Frames& frames);
 geometry_msgs::TransformStamped transformMessage(const Pose& pose, const Frames& frames);
 geometry_msgs::PoseStamped poseMessage(const Pose& pose, const Frames& frames);
+/// A sensor's place on the robot (Odometry::cameraInBody, lidarInBody) as a static transform from
+/// the base frame to the sensor's frame_id.
+geometry_msgs::TransformStamped sensorTransform(const Pose& in_body, const std::string& base,
+                                                const std::string& sensor_frame);
 
 /// What the node saw of one input topic.
 struct TopicHealth {

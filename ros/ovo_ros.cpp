@@ -12,10 +12,11 @@
 //                   spaces
 //   ~image_topic    sensor_msgs/Image, or CompressedImage when it ends in /compressed
 //                   (/camera/image_raw)
-//   ~imu_topic      sensor_msgs/Imu (/imu/data); "" for a robot without a gyro
-//   ~scan_topic     sensor_msgs/LaserScan (/scan); "" for a robot without a LiDAR
+//   ~imu_topic      sensor_msgs/Imu (/imu/data); "none" for a robot without a gyro
+//   ~scan_topic     sensor_msgs/LaserScan (/scan); "none" for a robot without a LiDAR
 //   ~odom_frame, ~base_frame   (odom, base_link); base_link is ovo's body frame (the IMU's)
-//   ~publish_tf     (true)
+//   ~publish_tf     (true); also the rig's camera and LiDAR extrinsics as static transforms from
+//                   ~base_frame to the frame_id of the first image and scan (RViz shows the scan)
 //   ~silent_after_s a topic silent this long is reported in the diagnostics (1.0)
 //   ~path_spacing_m the path keeps a pose every this far (0.05), ~path_max_poses at most (20000)
 //
@@ -30,6 +31,7 @@
 #include <diagnostic_msgs/DiagnosticArray.h>
 #include <nav_msgs/Path.h>
 #include <ros/ros.h>
+#include <tf2_ros/static_transform_broadcaster.h>
 #include <tf2_ros/transform_broadcaster.h>
 
 #include <atomic>
@@ -92,6 +94,9 @@ Params readParams(const ros::NodeHandle& pn) {
   pn.param<std::string>("image_topic", p.image_topic, "/camera/image_raw");
   pn.param<std::string>("imu_topic", p.imu_topic, "/imu/data");
   pn.param<std::string>("scan_topic", p.scan_topic, "/scan");
+  // "none" (what roslaunch can pass: it drops an empty argument) or empty: no such sensor.
+  for (std::string* topic : {&p.imu_topic, &p.scan_topic})
+    if (*topic == "none") topic->clear();
   if (p.image_topic.empty()) badParam("image_topic", "a camera topic (ovo needs the camera)");
   pn.param<std::string>("odom_frame", p.frames.odom, "odom");
   pn.param<std::string>("base_frame", p.frames.base, "base_link");
@@ -187,6 +192,7 @@ class Node {
           params_.scan_topic, 50,
           [this, scan](const sensor_msgs::LaserScan::ConstPtr& m) {
             scan->heard();
+            announceSensorFrame(m->header.frame_id, odo_.lidarInBody(), lidar_frame_sent_);
             const auto t = stampNs(m->header.stamp);
             if (!t) return scan->malformed("zero header stamp (ovo needs the sensor's time)");
             odo_.addScan(scanFromMessage(*m, *t));
@@ -218,9 +224,20 @@ class Node {
   }
 
  private:
+  // The first message of a sensor names its frame: the rig's extrinsics go out as a static
+  // transform base -> frame (once; the spinner thread only).
+  void announceSensorFrame(const std::string& frame_id, const Pose& in_body, bool& done) {
+    if (done || !params_.publish_tf) return;
+    done = true;
+    if (frame_id.empty() || frame_id == params_.frames.base) return;
+    static_tf_.push_back(sensorTransform(in_body, params_.frames.base, frame_id));
+    static_tf_broadcaster_.sendTransform(static_tf_);
+  }
+
   template <class Message>
   void onImage(const Message& m, Topic& topic) {
     topic.heard();
+    announceSensorFrame(m.header.frame_id, odo_.cameraInBody(), camera_frame_sent_);
     const auto t = stampNs(m.header.stamp);
     if (!t) return topic.malformed("zero header stamp (ovo needs the sensor's time)");
     try {
@@ -288,6 +305,9 @@ class Node {
   std::vector<ros::Subscriber> subs_;
   ros::Publisher odom_pub_, path_pub_, diag_pub_;
   tf2_ros::TransformBroadcaster tf_;
+  tf2_ros::StaticTransformBroadcaster static_tf_broadcaster_;
+  std::vector<geometry_msgs::TransformStamped> static_tf_;  // all of them: each send replaces
+  bool camera_frame_sent_ = false, lidar_frame_sent_ = false;
   ros::WallTimer diag_timer_, path_timer_;
   std::mutex path_mutex_;
   nav_msgs::Path path_;

