@@ -32,13 +32,18 @@ for tool in roscore roslaunch rosbag rostopic; do
 done
 "$PY" -c "import rosbag" 2>/dev/null || skip "$PY cannot import rosbag (Debian's python3-rosbag)"
 
+OWN_WORK=0
+if [ -z "${2:-}" ]; then OWN_WORK=1; fi
 WORK=${2:-$(mktemp -d /tmp/ovo_ros_test.XXXXXX)}
 mkdir -p "$WORK"
 PIDS=()
+PASSED=0
 cleanup() {
   for pid in "${PIDS[@]}"; do kill -INT -- "-$pid" 2>/dev/null || true; done
   sleep 1
   for pid in "${PIDS[@]}"; do kill -KILL -- "-$pid" 2>/dev/null || true; done
+  # A passed run's own folder goes (the bag is 250 MB); a failed one stays to be looked at.
+  if [ "$OWN_WORK" = 1 ] && [ "$PASSED" = 1 ]; then rm -rf "$WORK"; fi
 }
 trap cleanup EXIT
 fail() { echo "FAIL: $*"; exit 1; }
@@ -229,4 +234,5 @@ print("rate 3: %d tracking losses (recovered)" % s["tracking_losses"])
 for p in problems: print("  " + p)
 sys.exit(1 if problems else 0)
 EOF
+PASSED=1
 echo "PASS"
