@@ -66,8 +66,8 @@ void setTwist(Pose& p, const Pose& prev) {
 }
 
 bool finite(const GyroSample& s) {
-  return std::isfinite(s.wx) && std::isfinite(s.wy) && std::isfinite(s.wz) &&
-         std::isfinite(s.ax) && std::isfinite(s.ay) && std::isfinite(s.az);
+  return std::isfinite(s.wx) && std::isfinite(s.wy) && std::isfinite(s.wz) && std::isfinite(s.ax) &&
+         std::isfinite(s.ay) && std::isfinite(s.az);
 }
 
 bool finite(const Scan& s) {

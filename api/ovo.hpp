@@ -59,8 +59,8 @@ struct Status {
   bool tracking = false;  // the latest frame's pose came from the camera
   std::string reason;     // why not, when not ("low_parallax", "too_few_matches", ...)
   int tracking_losses = 0;
-  double frame_ms = 0.0;  // the latest frame's processing time (frontend and estimator), ms
-  double solve_ms = 0.0;  // the latest keyframe's estimator time (the window's solve), ms
+  double frame_ms = 0.0;   // the latest frame's processing time (frontend and estimator), ms
+  double solve_ms = 0.0;   // the latest keyframe's estimator time (the window's solve), ms
   int solve_failures = 0;  // window: solves whose states were restored (see ovo run's metrics)
   /// The camera-gyro offset in use, s (image stamp minus its time on the gyro clock): the rig's
   /// camera.time_offset_s plus, for the window, its own estimate on top.
@@ -70,7 +70,8 @@ struct Status {
   std::string error;
 };
 
-/// One IMU sample in the body frame: the gyro [rad/s] and, where the IMU has one, the accelerometer.
+/// One IMU sample in the body frame: the gyro [rad/s] and, where the IMU has one, the
+/// accelerometer.
 struct GyroSample {
   std::int64_t t_ns = 0;
   double wx = 0, wy = 0, wz = 0;
@@ -128,8 +129,8 @@ class Odometry {
   Odometry& operator=(const Odometry&) = delete;
 
   /// Returns false (and ignores it, counted in status().refused) for a measurement not after the
-  /// previous one of its kind, with a non-finite value, or after finish(). addImage throws for an image that is not 8-bit grey, BGR or BGRA, or not of
-  /// the calibration's size.
+  /// previous one of its kind, with a non-finite value, or after finish(). addImage throws for an
+  /// image that is not 8-bit grey, BGR or BGRA, or not of the calibration's size.
   bool addImage(std::int64_t t_ns, const cv::Mat& image);
   bool addGyro(const GyroSample& sample);
   bool addScan(const Scan& scan);

@@ -113,7 +113,7 @@ bool OnlinePipeline::addScan(const LidarScan& scan) {
 }
 
 OnlinePipeline::Clock::time_point OnlinePipeline::gyroDeadline(Clock::time_point arrival,
-                                                              Timestamp later_ns) const {
+                                                               Timestamp later_ns) const {
   const double wait_ms = options_.gyro_wait_ms + 1e-6 * static_cast<double>(later_ns);
   return arrival + std::chrono::duration_cast<Clock::duration>(
                        std::chrono::duration<double, std::milli>(wait_ms));

@@ -1,7 +1,7 @@
 #include "ros/messages.hpp"
 
-#include <cmath>
 #include <algorithm>
+#include <cmath>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <sstream>
@@ -49,8 +49,8 @@ cv::Mat imageFromMessage(const sensor_msgs::Image& msg) {
       msg.data.size() < static_cast<std::size_t>(msg.step) * msg.height) {
     std::ostringstream what;
     what << "image of " << msg.width << "x" << msg.height << " " << e << " has step " << msg.step
-         << " and " << msg.data.size() << " bytes (expected at least width x "
-         << pixel_bytes << " a row and step x height)";
+         << " and " << msg.data.size() << " bytes (expected at least width x " << pixel_bytes
+         << " a row and step x height)";
     throw std::runtime_error(what.str());
   }
   const cv::Mat view(static_cast<int>(msg.height), static_cast<int>(msg.width), layout.type,
@@ -74,8 +74,7 @@ cv::Mat imageFromMessage(const sensor_msgs::CompressedImage& msg) {
                       const_cast<std::uint8_t*>(msg.data.data()));
   cv::Mat out = cv::imdecode(bytes, cv::IMREAD_GRAYSCALE);
   if (out.empty())
-    throw std::runtime_error("compressed image (format '" + msg.format +
-                             "') could not be decoded");
+    throw std::runtime_error("compressed image (format '" + msg.format + "') could not be decoded");
   return out;
 }
 
@@ -206,8 +205,7 @@ diagnostic_msgs::DiagnosticStatus diagnosticStatus(const Status& status,
     d.message = "processing stopped: " + status.error;
   } else if (!warnings.empty()) {
     d.level = diagnostic_msgs::DiagnosticStatus::WARN;
-    for (std::size_t i = 0; i < warnings.size(); ++i)
-      d.message += (i ? "; " : "") + warnings[i];
+    for (std::size_t i = 0; i < warnings.size(); ++i) d.message += (i ? "; " : "") + warnings[i];
   } else {
     d.level = diagnostic_msgs::DiagnosticStatus::OK;
     d.message = status.frames_processed > 0 ? "tracking" : "waiting for images";

@@ -49,10 +49,10 @@ geometry_msgs::TransformStamped sensorTransform(const Pose& in_body, const std::
 
 /// What the node saw of one input topic.
 struct TopicHealth {
-  std::string name;       // the topic
-  double silent_s = -1;   // wall time since its last message; < 0: none yet
-  long received = 0;      // messages
-  long malformed = 0;     // messages that could not be read (bad encoding, size, zero stamp)
+  std::string name;      // the topic
+  double silent_s = -1;  // wall time since its last message; < 0: none yet
+  long received = 0;     // messages
+  long malformed = 0;    // messages that could not be read (bad encoding, size, zero stamp)
 };
 
 /// The node's diagnostic: ovo's Status, the topics' health and the frames dropped since the last

@@ -154,59 +154,37 @@ class Node {
     path_pub_ = pn.advertise<nav_msgs::Path>("path", 1, true);
     diag_pub_ = nh.advertise<diagnostic_msgs::DiagnosticArray>("/diagnostics", 10);
     path_.header.frame_id = params_.frames.odom;
-    const auto hints = ros::TransportHints().tcpNoDelay();
-    topics_.push_back(std::make_unique<Topic>(params_.image_topic));
-    Topic* image = topics_.back().get();
     const std::string compressed = "/compressed";
-    const bool is_compressed =
-        params_.image_topic.size() > compressed.size() &&
-        params_.image_topic.compare(params_.image_topic.size() - compressed.size(),
-                                    compressed.size(), compressed) == 0;
-    if (is_compressed)
-      subs_.push_back(nh.subscribe<sensor_msgs::CompressedImage>(
-          params_.image_topic, 10,
-          [this, image](const sensor_msgs::CompressedImage::ConstPtr& m) { onImage(*m, *image); },
-          ros::VoidConstPtr(), hints));
+    const std::string& image_topic = params_.image_topic;
+    if (image_topic.size() > compressed.size() &&
+        image_topic.compare(image_topic.size() - compressed.size(), compressed.size(),
+                            compressed) == 0)
+      subscribe<sensor_msgs::CompressedImage>(
+          nh, image_topic, 10, [this](const auto& m, std::int64_t t) {
+            announceSensorFrame(m.header.frame_id, odo_.cameraInBody(), camera_frame_sent_);
+            odo_.addImage(t, imageFromMessage(m));
+          });
     else
-      subs_.push_back(nh.subscribe<sensor_msgs::Image>(
-          params_.image_topic, 10,
-          [this, image](const sensor_msgs::Image::ConstPtr& m) { onImage(*m, *image); },
-          ros::VoidConstPtr(), hints));
-    if (!params_.imu_topic.empty()) {
-      topics_.push_back(std::make_unique<Topic>(params_.imu_topic));
-      Topic* imu = topics_.back().get();
-      subs_.push_back(nh.subscribe<sensor_msgs::Imu>(
-          params_.imu_topic, 2000,
-          [this, imu](const sensor_msgs::Imu::ConstPtr& m) {
-            imu->heard();
-            const auto t = stampNs(m->header.stamp);
-            if (!t) return imu->malformed("zero header stamp (ovo needs the sensor's time)");
-            odo_.addGyro(gyroFromMessage(*m, *t));
-          },
-          ros::VoidConstPtr(), hints));
-    }
-    if (!params_.scan_topic.empty()) {
-      topics_.push_back(std::make_unique<Topic>(params_.scan_topic));
-      Topic* scan = topics_.back().get();
-      subs_.push_back(nh.subscribe<sensor_msgs::LaserScan>(
-          params_.scan_topic, 50,
-          [this, scan](const sensor_msgs::LaserScan::ConstPtr& m) {
-            scan->heard();
-            announceSensorFrame(m->header.frame_id, odo_.lidarInBody(), lidar_frame_sent_);
-            const auto t = stampNs(m->header.stamp);
-            if (!t) return scan->malformed("zero header stamp (ovo needs the sensor's time)");
-            odo_.addScan(scanFromMessage(*m, *t));
-          },
-          ros::VoidConstPtr(), hints));
-    }
+      subscribe<sensor_msgs::Image>(nh, image_topic, 10, [this](const auto& m, std::int64_t t) {
+        announceSensorFrame(m.header.frame_id, odo_.cameraInBody(), camera_frame_sent_);
+        odo_.addImage(t, imageFromMessage(m));
+      });
+    if (!params_.imu_topic.empty())
+      subscribe<sensor_msgs::Imu>(
+          nh, params_.imu_topic, 2000,
+          [this](const auto& m, std::int64_t t) { odo_.addGyro(gyroFromMessage(m, t)); });
+    if (!params_.scan_topic.empty())
+      subscribe<sensor_msgs::LaserScan>(
+          nh, params_.scan_topic, 50, [this](const auto& m, std::int64_t t) {
+            announceSensorFrame(m.header.frame_id, odo_.lidarInBody(), lidar_frame_sent_);
+            odo_.addScan(scanFromMessage(m, t));
+          });
     // Wall timers: with use_sim_time a stopped bag stops the ROS clock, and a silent topic is
     // exactly what the diagnostics must report.
-    diag_timer_ = nh.createWallTimer(ros::WallDuration(1.0), [this](const ros::WallTimerEvent&) {
-      publishDiagnostics();
-    });
-    path_timer_ = nh.createWallTimer(ros::WallDuration(0.5), [this](const ros::WallTimerEvent&) {
-      publishPath();
-    });
+    diag_timer_ = nh.createWallTimer(ros::WallDuration(1.0),
+                                     [this](const ros::WallTimerEvent&) { publishDiagnostics(); });
+    path_timer_ = nh.createWallTimer(ros::WallDuration(0.5),
+                                     [this](const ros::WallTimerEvent&) { publishPath(); });
     ROS_INFO("ovo_ros: %s estimator on %s%s%s; rig %s", params_.options.estimator.c_str(),
              params_.image_topic.c_str(),
              params_.imu_topic.empty() ? " (no gyro)" : (", " + params_.imu_topic).c_str(),
@@ -234,17 +212,26 @@ class Node {
     static_tf_broadcaster_.sendTransform(static_tf_);
   }
 
-  template <class Message>
-  void onImage(const Message& m, Topic& topic) {
-    topic.heard();
-    announceSensorFrame(m.header.frame_id, odo_.cameraInBody(), camera_frame_sent_);
-    const auto t = stampNs(m.header.stamp);
-    if (!t) return topic.malformed("zero header stamp (ovo needs the sensor's time)");
-    try {
-      odo_.addImage(*t, imageFromMessage(m));
-    } catch (const std::exception& e) {  // an encoding or a size ovo cannot use
-      topic.malformed(e.what());
-    }
+  // Subscribes `take` (message, its stamp in ns) to `topic`, counted in the diagnostics: a message
+  // with a zero stamp, or one `take` throws for (an image encoding or size ovo cannot use), is
+  // skipped as malformed.
+  template <class Message, class Take>
+  void subscribe(ros::NodeHandle& nh, const std::string& topic, int queue, Take take) {
+    topics_.push_back(std::make_unique<Topic>(topic));
+    Topic* health = topics_.back().get();
+    subs_.push_back(nh.subscribe<Message>(
+        topic, queue,
+        [health, take](const typename Message::ConstPtr& m) {
+          health->heard();
+          const auto t = stampNs(m->header.stamp);
+          if (!t) return health->malformed("zero header stamp (ovo needs the sensor's time)");
+          try {
+            take(*m, *t);
+          } catch (const std::exception& e) {
+            health->malformed(e.what());
+          }
+        },
+        ros::VoidConstPtr(), ros::TransportHints().tcpNoDelay()));
   }
 
   // On ovo's estimator thread.
@@ -252,9 +239,10 @@ class Node {
     if (p.tracked != tracking_) {
       const Status status = odo_.status();
       if (!p.tracked && tracking_ && status.reason != "initializing")
-        ROS_WARN("ovo_ros: tracking lost at %.3f s (%s): the pose is held or propagated by the "
-                 "gyro until the camera tracks again",
-                 ros1::rosTime(p.t_gyro_clock_ns).toSec(), status.reason.c_str());
+        ROS_WARN(
+            "ovo_ros: tracking lost at %.3f s (%s): the pose is held or propagated by the "
+            "gyro until the camera tracks again",
+            ros1::rosTime(p.t_gyro_clock_ns).toSec(), status.reason.c_str());
       else if (p.tracked && ever_tracked_)
         ROS_INFO("ovo_ros: tracking again at %.3f s", ros1::rosTime(p.t_gyro_clock_ns).toSec());
       tracking_ = p.tracked;

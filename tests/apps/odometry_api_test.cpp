@@ -196,8 +196,8 @@ TEST(OdometryApi, ThePosesTwistIsTheBodysVelocity) {
       }
     }
     if (turn_rates.empty()) return TwistErrors{median(speeds), median(speed_err), 0, 0, 0};
-    return TwistErrors{median(speeds), median(speed_err), median(turn_rates),
-                       median(turn_rate_err), turn_rates.size()};
+    return TwistErrors{median(speeds), median(speed_err), median(turn_rates), median(turn_rate_err),
+                       turn_rates.size()};
   };
   // The final poses, and the poses as they went out (what a ROS node publishes).
   const TwistErrors final_twist = errors(run.trajectory, true);

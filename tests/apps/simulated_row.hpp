@@ -16,15 +16,16 @@
 
 namespace ovo::test {
 
-/// The first duration_s of configs/sim/<scenario>.yaml (vineyard_row: a straight row; headland_turn:
-/// a row, then a U-turn from 9 s on).
+/// The first duration_s of configs/sim/<scenario>.yaml (vineyard_row: a straight row;
+/// headland_turn: a row, then a U-turn from 9 s on).
 inline std::filesystem::path simulatedRow(int duration_s,
                                           const std::string& scenario = "vineyard_row") {
   namespace fs = std::filesystem;
   const fs::path bin = ovoBinaryPath();
   const auto stamp = fs::last_write_time(bin).time_since_epoch().count();
   const fs::path cache = bin.parent_path() / "test_cache";
-  const std::string name = scenario == "vineyard_row" ? "simulated_row_" : "simulated_" + scenario + "_";
+  const std::string name =
+      scenario == "vineyard_row" ? "simulated_row_" : "simulated_" + scenario + "_";
   const fs::path row = cache / (name + std::to_string(duration_s) + "s_" + std::to_string(stamp));
   if (fs::exists(row / "done")) return row;
   fs::create_directories(cache);

@@ -2,11 +2,11 @@
 // (rgb swapped to bgr, 16-bit scaled), malformed images refused with the reason, the IMU's
 // accelerometer dropped when the message says it has none (REP 145), the odometry's frames, stamp
 // and twist, the static sensor transform, and the diagnostic's level for each state.
+#include "ros/messages.hpp"
+
 #include <gtest/gtest.h>
 
 #include <opencv2/imgcodecs.hpp>
-
-#include "ros/messages.hpp"
 
 namespace ovo::ros1 {
 namespace {
@@ -96,7 +96,7 @@ TEST(RosMessages, TheAccelerometerIsTakenUnlessTheImuSaysItHasNone) {
 
 TEST(RosMessages, TheOdometryIsStampedOnTheGyroClockInTheGivenFrames) {
   Pose p;
-  p.t_ns = 2'030'000'000;            // the image's stamp
+  p.t_ns = 2'030'000'000;             // the image's stamp
   p.t_gyro_clock_ns = 2'000'000'000;  // its time on the IMU's clock
   p.position_m = {1, 2, 3};
   p.orientation_xyzw = {0, 0, 0.6, 0.8};
@@ -125,7 +125,8 @@ TEST(RosMessages, TheDiagnosticSaysWhatIsWrong) {
   Status s;
   s.frames_processed = 10;
   s.tracking = true;
-  std::vector<TopicHealth> topics = {{"/camera/image_raw", 0.05, 10, 0}, {"/imu/data", 0.01, 100, 0}};
+  std::vector<TopicHealth> topics = {{"/camera/image_raw", 0.05, 10, 0},
+                                     {"/imu/data", 0.01, 100, 0}};
   EXPECT_EQ(diagnosticStatus(s, topics, 0, 1.0).level, diagnostic_msgs::DiagnosticStatus::OK);
 
   topics[1].silent_s = 5.2;
