@@ -136,7 +136,6 @@ class Topic {
     if (received_ > 0) h.silent_s = std::chrono::duration<double>(Clock::now() - last_).count();
     return h;
   }
-  const std::string& name() const { return name_; }
 
  private:
   const std::string name_;
