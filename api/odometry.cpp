@@ -65,11 +65,6 @@ void setTwist(Pose& p, const Pose& prev) {
   p.angular_velocity_body_radps = {w.x(), w.y(), w.z()};
 }
 
-bool finite(const GyroSample& s) {
-  return std::isfinite(s.wx) && std::isfinite(s.wy) && std::isfinite(s.wz) && std::isfinite(s.ax) &&
-         std::isfinite(s.ay) && std::isfinite(s.az);
-}
-
 bool finite(const Scan& s) {
   return std::isfinite(s.angle_min_rad) && std::isfinite(s.angle_increment_rad) &&
          std::isfinite(s.time_increment_s) && !std::isnan(s.range_min_m) &&
@@ -131,9 +126,7 @@ struct Odometry::Impl {
   Timestamp image_shift_ns = 0;
   std::unique_ptr<estimator::Estimator> est;
   PoseCallback on_pose;
-  bool realtime = false;
   bool finished = false;
-  int processed = 0;
   std::optional<app::OnlinePipeline> pipeline;  // realtime
 
   // Offline: images and scans waiting for the gyro sample at or after the image time.
@@ -160,11 +153,11 @@ struct Odometry::Impl {
     p.t_ns += image_shift_ns;
     // The estimator's counters when they may have changed: a keyframe's solve, a change of state.
     std::optional<estimator::EstimatorStats> stats;
-    if (f.is_keyframe || processed == 0 || f.tracked != status.tracking) stats = est->stats();
+    if (f.is_keyframe || status.frames_processed == 0 || f.tracked != status.tracking)
+      stats = est->stats();
     {
       std::lock_guard lock(mutex);
-      ++processed;
-      status.frames_processed = processed;
+      ++status.frames_processed;
       status.tracking = f.tracked;
       status.reason = f.tracked ? std::string() : f.status;
       status.frame_ms = f.frontend_ms + f.estimator_ms;
@@ -222,7 +215,6 @@ Odometry::Odometry(const std::string& rig_file, const OdometryOptions& options,
   impl_->keep_trajectory = options.keep_trajectory;
   config.checkAllUsed();
   impl_->on_pose = std::move(on_pose);
-  impl_->realtime = options.realtime;
   impl_->status.time_offset_s = impl_->setup.time_offset_s;
   if (options.realtime) {
     app::OnlineOptions online;
@@ -257,12 +249,13 @@ bool Odometry::addImage(std::int64_t t_ns, const cv::Mat& image) {
 
 bool Odometry::addGyro(const GyroSample& sample) {
   Impl& m = *impl_;
-  if (m.finished || (m.any_gyro && sample.t_ns <= m.last_gyro) || !finite(sample))
-    return m.refuse();
-  m.any_gyro = true;
-  m.last_gyro = sample.t_ns;
   const ImuSample s{sample.t_ns, Vec3(sample.wx, sample.wy, sample.wz),
                     Vec3(sample.ax, sample.ay, sample.az)};
+  if (m.finished || (m.any_gyro && s.t_ns <= m.last_gyro) || !s.gyro_radps.allFinite() ||
+      !s.accel_mps2.allFinite())
+    return m.refuse();
+  m.any_gyro = true;
+  m.last_gyro = s.t_ns;
   if (m.pipeline) return m.pipeline->addGyro(s) || m.refuse();
   if (!m.setup.has_gyro) return true;
   // Images waiting since before this sample: the sample is the first at or after them.
@@ -332,7 +325,7 @@ std::vector<Pose> Odometry::trajectory() const {
 
 int Odometry::framesProcessed() const {
   std::lock_guard lock(impl_->mutex);
-  return impl_->processed;
+  return impl_->status.frames_processed;
 }
 
 int Odometry::framesDropped() const {

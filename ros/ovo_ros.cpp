@@ -34,7 +34,6 @@
 #include <tf2_ros/static_transform_broadcaster.h>
 #include <tf2_ros/transform_broadcaster.h>
 
-#include <atomic>
 #include <chrono>
 #include <deque>
 #include <memory>
@@ -152,7 +151,6 @@ class Node {
     odom_pub_ = pn.advertise<nav_msgs::Odometry>("odometry", 50);
     path_pub_ = pn.advertise<nav_msgs::Path>("path", 1, true);
     diag_pub_ = nh.advertise<diagnostic_msgs::DiagnosticArray>("/diagnostics", 10);
-    path_.header.frame_id = params_.frames.odom;
     const std::string compressed = "/compressed";
     const std::string& image_topic = params_.image_topic;
     if (image_topic.size() > compressed.size() &&
@@ -256,19 +254,25 @@ class Node {
       const double dz = p.position_m[2] - last.pose.position.z;
       return dx * dx + dy * dy + dz * dz >= params_.path_spacing_m * params_.path_spacing_m;
     };
-    if (!path_.poses.empty() && !far_enough(path_.poses.back())) return;
-    path_.poses.push_back(poseMessage(p, params_.frames));
-    if (static_cast<int>(path_.poses.size()) > params_.path_max_poses)
-      path_.poses.erase(path_.poses.begin());
-    path_.header.stamp = path_.poses.back().header.stamp;
+    if (!path_.empty() && !far_enough(path_.back())) return;
+    path_.push_back(poseMessage(p, params_.frames));
+    if (static_cast<int>(path_.size()) > params_.path_max_poses) path_.pop_front();
     path_changed_ = true;
   }
 
   void publishPath() {
-    std::lock_guard lock(path_mutex_);
-    if (!path_changed_) return;
-    path_pub_.publish(path_);
-    path_changed_ = false;
+    // The message is made and sent here, on the spinner's thread, not on ovo's estimator thread
+    // that adds the poses.
+    nav_msgs::Path path;
+    {
+      std::lock_guard lock(path_mutex_);
+      if (!path_changed_) return;
+      path.poses.assign(path_.begin(), path_.end());
+      path_changed_ = false;
+    }
+    path.header.frame_id = params_.frames.odom;
+    path.header.stamp = path.poses.back().header.stamp;
+    path_pub_.publish(path);
   }
 
   void publishDiagnostics() {
@@ -297,7 +301,7 @@ class Node {
   bool camera_frame_sent_ = false, lidar_frame_sent_ = false;
   ros::WallTimer diag_timer_, path_timer_;
   std::mutex path_mutex_;
-  nav_msgs::Path path_;
+  std::deque<geometry_msgs::PoseStamped> path_;  // under path_mutex_
   bool path_changed_ = false;
   int dropped_reported_ = 0;
   bool error_logged_ = false;
