@@ -41,6 +41,11 @@ void BM_WindowEstimator(benchmark::State& state, ovo::estimator::LinearSolver so
 
 }  // namespace
 
+BENCHMARK_CAPTURE(BM_WindowEstimator, landmark_schur,
+                  ovo::estimator::LinearSolver::kLandmarkSchur)
+    ->Name("BM_WindowEstimator/synthetic6s/landmark_schur")
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(2);
 BENCHMARK_CAPTURE(BM_WindowEstimator, dense_schur, ovo::estimator::LinearSolver::kDenseSchur)
     ->Name("BM_WindowEstimator/synthetic6s/dense_schur")
     ->Unit(benchmark::kMillisecond)

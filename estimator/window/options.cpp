@@ -128,7 +128,9 @@ WindowOptions readWindowOptions(const Config& c) {
 
   o.linear_solver = c.getEnum(
       p + "linear_solver", o.linear_solver,
-      {{"dense_schur", LinearSolver::kDenseSchur}, {"sparse_schur", LinearSolver::kSparseSchur}});
+      {{"landmark_schur", LinearSolver::kLandmarkSchur},
+       {"dense_schur", LinearSolver::kDenseSchur},
+       {"sparse_schur", LinearSolver::kSparseSchur}});
   o.max_iterations = c.getIntInRange(p + "max_iterations", o.max_iterations, 1, 1000);
   o.max_solver_time_s = c.getInRange(p + "max_solver_time_s", o.max_solver_time_s, 0.0, 100.0);
   o.motion_only_iterations =

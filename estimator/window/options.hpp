@@ -11,7 +11,7 @@ namespace ovo::estimator {
 
 /// Linear solver of the window's Ceres problem (DESIGN section 7: both measured, dense wins at 10
 /// keyframes).
-enum class LinearSolver { kDenseSchur, kSparseSchur };
+enum class LinearSolver { kLandmarkSchur, kDenseSchur, kSparseSchur };
 /// Whether the run ends with a batch re-optimisation of every keyframe (offline only).
 enum class RefineMode { kNone, kFull };
 /// How a LiDAR beam that ends on the ground constrains the landmark next to it.
@@ -199,7 +199,7 @@ struct WindowOptions {
   int reinit_after_lost_frames = 5;   // lost this long: restart the window at the current pose
 
   // Solver.
-  LinearSolver linear_solver = LinearSolver::kDenseSchur;
+  LinearSolver linear_solver = LinearSolver::kLandmarkSchur;
   int max_iterations = 4;                 // per window solve (warm-started by the last)
   double max_solver_time_s = 0.0;         // per window solve, s; 0 = no limit (online: ~0.04)
   int motion_only_iterations = 5;         // per-frame pose refinement

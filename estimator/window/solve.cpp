@@ -1,4 +1,5 @@
-// The window's Ceres solve, with the scalar states bounded and every state restored on failure.
+// The window's solve (its own minimiser, landmark_schur.hpp, or Ceres), with the scalar states
+// bounded and every state restored on failure.
 #include "estimator/window/solve.hpp"
 
 #include <ceres/ceres.h>
@@ -10,6 +11,7 @@
 #include <unordered_set>
 
 #include "factors/accel_factor.hpp"
+#include "estimator/window/landmark_schur.hpp"
 #include "factors/bearing_factor.hpp"
 #include "factors/parameterization.hpp"
 
@@ -27,6 +29,84 @@ void addFactorsToProblem(std::vector<FactorSpec>& factors, const std::vector<Key
   for (FactorSpec& f : factors)
     problem.AddResidualBlock(f.cost.release(), f.loss.release(), f.blocks);
 }
+
+namespace {
+
+// The scalar states of the run that the factors may hold.
+using Scalars = std::array<ScalarState, 2>;
+
+ceres::Solver::Summary solveWithCeres(std::vector<FactorSpec>& factors,
+                                      const std::vector<Keyframe*>& keyframes,
+                                      std::unordered_map<TrackId, Landmark>& landmarks,
+                                      const WindowModel& model, const Scalars& scalars,
+                                      const SolveOptions& options) {
+  std::unordered_set<const double*> used;
+  for (const FactorSpec& f : factors) used.insert(f.blocks.begin(), f.blocks.end());
+  ceres::Problem problem;
+  addFactorsToProblem(factors, keyframes, model, used, problem);
+  for (auto& [id, lm] : landmarks) {
+    if (!used.count(lm.rho)) continue;
+    problem.SetParameterLowerBound(lm.rho, 0, model.min_rho);
+    problem.SetParameterUpperBound(lm.rho, 0, model.max_rho);
+    lm.rho[0] = std::clamp(lm.rho[0], model.min_rho, model.max_rho);
+  }
+  for (const ScalarState& x : scalars) {
+    if (!x.block || !problem.HasParameterBlock(x.block)) continue;
+    if (x.hold) {
+      problem.SetParameterBlockConstant(x.block);
+    } else {
+      problem.SetParameterLowerBound(x.block, 0, -x.max_abs);
+      problem.SetParameterUpperBound(x.block, 0, x.max_abs);
+    }
+  }
+  ceres::Solver::Options so;
+  so.linear_solver_type = options.linear_solver == LinearSolver::kSparseSchur ? ceres::SPARSE_SCHUR
+                                                                              : ceres::DENSE_SCHUR;
+  so.max_num_iterations = options.max_iterations;
+  if (options.max_time_s > 0.0) so.max_solver_time_in_seconds = options.max_time_s;
+  so.num_threads = options.num_threads;
+  // No explicit ordering: Ceres' own keeps the program's order (a ParameterBlockOrdering orders
+  // each group by address, which differs between runs and changes the answers in the last bits).
+  so.logging_type = ceres::SILENT;
+  so.minimizer_progress_to_stdout = false;
+  ceres::Solver::Summary s;
+  ceres::Solve(so, &problem, &s);
+  return s;
+}
+
+// The same problem for the window's own minimiser (landmark_schur.hpp).
+LmSummary solveOwn(std::vector<FactorSpec>& factors, const std::vector<Keyframe*>& keyframes,
+                   std::unordered_map<TrackId, Landmark>& landmarks, const WindowModel& model,
+                   const Scalars& scalars, const SolveOptions& options) {
+  std::vector<LmResidual> residuals;
+  residuals.reserve(factors.size());
+  for (const FactorSpec& f : factors) residuals.push_back({f.cost.get(), f.loss.get(), &f.blocks});
+  std::unordered_map<const double*, LmBlockInfo> info;
+  info.reserve(landmarks.size() + 2 * keyframes.size() + scalars.size());
+  for (const Keyframe* kf : keyframes) {
+    info[kf->q_W_B].quaternion = true;
+    if (tiedRotations(model)) info[kf->q_W_G].quaternion = true;
+  }
+  for (const auto& [id, lm] : landmarks) {
+    LmBlockInfo& b = info[lm.rho];
+    b.eliminate = true;
+    b.lower = model.min_rho;
+    b.upper = model.max_rho;
+  }
+  for (const ScalarState& x : scalars) {
+    if (!x.block) continue;
+    LmBlockInfo& b = info[x.block];
+    b.constant = x.hold;
+    b.lower = -x.max_abs;
+    b.upper = x.max_abs;
+  }
+  LmOptions lo;
+  lo.max_iterations = options.max_iterations;
+  lo.max_time_s = options.max_time_s;
+  return solveLandmarkSchur(residuals, info, lo);
+}
+
+}  // namespace
 
 SolveSummary solveFactors(std::vector<FactorSpec> factors, const std::vector<Keyframe*>& keyframes,
                           std::unordered_map<TrackId, Landmark>& landmarks,
@@ -56,46 +136,25 @@ SolveSummary solveFactors(std::vector<FactorSpec> factors, const std::vector<Key
   std::array<double, factors::kGravityStateSize> gravity_backup{};
   if (options.gravity) std::copy_n(options.gravity, gravity_backup.size(), gravity_backup.begin());
 
-  std::unordered_set<const double*> used;
-  for (const FactorSpec& f : factors) used.insert(f.blocks.begin(), f.blocks.end());
-  ceres::Problem problem;
   summary.residual_blocks = static_cast<int>(factors.size());
-  addFactorsToProblem(factors, keyframes, model, used, problem);
-  for (auto& [id, lm] : landmarks) {
-    if (!used.count(lm.rho)) continue;
-    problem.SetParameterLowerBound(lm.rho, 0, model.min_rho);
-    problem.SetParameterUpperBound(lm.rho, 0, model.max_rho);
-    lm.rho[0] = std::clamp(lm.rho[0], model.min_rho, model.max_rho);
+  bool solver_failed = false;
+  if (options.linear_solver == LinearSolver::kLandmarkSchur) {
+    const LmSummary s = solveOwn(factors, keyframes, landmarks, model, scalars, options);
+    summary.iterations = s.iterations;
+    summary.initial_cost = s.initial_cost;
+    summary.final_cost = s.final_cost;
+    summary.message = s.message;
+    solver_failed = s.failed;
+  } else {
+    const ceres::Solver::Summary s = solveWithCeres(factors, keyframes, landmarks, model, scalars,
+                                                    options);
+    summary.iterations = static_cast<int>(s.iterations.size());
+    summary.initial_cost = s.initial_cost;
+    summary.final_cost = s.final_cost;
+    summary.message = s.message;
+    solver_failed = s.termination_type == ceres::FAILURE;
   }
-
-  for (const ScalarState& x : scalars) {
-    if (!x.block || !problem.HasParameterBlock(x.block)) continue;
-    if (x.hold) {
-      problem.SetParameterBlockConstant(x.block);
-    } else {
-      problem.SetParameterLowerBound(x.block, 0, -x.max_abs);
-      problem.SetParameterUpperBound(x.block, 0, x.max_abs);
-    }
-  }
-
-  ceres::Solver::Options so;
-  so.linear_solver_type = options.linear_solver == LinearSolver::kSparseSchur ? ceres::SPARSE_SCHUR
-                                                                              : ceres::DENSE_SCHUR;
-  so.max_num_iterations = options.max_iterations;
-  if (options.max_time_s > 0.0) so.max_solver_time_in_seconds = options.max_time_s;
-  so.num_threads = options.num_threads;
-  // No explicit ordering: Ceres' own keeps the program's order (a ParameterBlockOrdering orders
-  // each group by address, which differs between runs and changes the answers in the last bits).
-  so.logging_type = ceres::SILENT;
-  so.minimizer_progress_to_stdout = false;
-  ceres::Solver::Summary s;
-  ceres::Solve(so, &problem, &s);
-
-  summary.iterations = static_cast<int>(s.iterations.size());
-  summary.initial_cost = s.initial_cost;
-  summary.final_cost = s.final_cost;
-  summary.message = s.message;
-  bool finite = s.termination_type != ceres::FAILURE;
+  bool finite = !solver_failed;
   for (const Keyframe* kf : keyframes)
     finite = finite &&
              std::isfinite(kf->q_W_B[0] + kf->q_W_B[1] + kf->q_W_B[2] + kf->q_W_B[3] +

@@ -24,7 +24,7 @@ struct ScalarState {
 };
 
 struct SolveOptions {
-  LinearSolver linear_solver = LinearSolver::kDenseSchur;
+  LinearSolver linear_solver = LinearSolver::kLandmarkSchur;
   int max_iterations = 8;
   double max_time_s = 0.0;  // 0: unlimited
   int num_threads = 1;
