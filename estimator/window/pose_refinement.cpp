@@ -1,15 +1,41 @@
 // Motion-only refinement of one frame's pose against fixed landmarks.
 #include "estimator/window/pose_refinement.hpp"
 
-#include <ceres/ceres.h>
+#include <ceres/loss_function.h>
+#include <ceres/sized_cost_function.h>
 
 #include <cmath>
+#include <memory>
 
+#include "estimator/window/landmark_schur.hpp"
 #include "factors/bearing_factor.hpp"
 #include "factors/parameterization.hpp"
 #include "factors/pose_prior_factor.hpp"
 
 namespace ovo::estimator {
+namespace {
+
+// A bearing factor whose landmark is held (its anchor blocks are constants of the factor): a
+// residual on the frame's pose alone, so that the solve has two blocks, not four per point.
+class HeldPointBearing final : public ceres::SizedCostFunction<2, 4, 3> {
+ public:
+  HeldPointBearing(std::unique_ptr<factors::BearingFactor> factor, const double* q_a,
+                   const double* p_a, const double* rho)
+      : factor_(std::move(factor)), q_a_(q_a), p_a_(p_a), rho_(rho) {}
+  bool Evaluate(double const* const* parameters, double* residuals,
+                double** jacobians) const override {
+    const double* blocks[5] = {q_a_, p_a_, parameters[0], parameters[1], rho_};
+    double* jac[5] = {nullptr, nullptr, jacobians ? jacobians[0] : nullptr,
+                      jacobians ? jacobians[1] : nullptr, nullptr};
+    return factor_->Evaluate(blocks, residuals, jacobians ? jac : nullptr);
+  }
+
+ private:
+  std::unique_ptr<factors::BearingFactor> factor_;
+  const double *q_a_, *p_a_, *rho_;
+};
+
+}  // namespace
 
 std::optional<PoseRefinement> refinePose(const std::vector<Vec3>& points_W,
                                          const std::vector<Vec3>& bearings_C,
@@ -51,38 +77,38 @@ std::optional<PoseRefinement> refinePose(const std::vector<Vec3>& points_W,
   factors::quatToBlock(Quat(T_W_B_init.linear()).normalized(), q);
   for (int k = 0; k < 3; ++k) p[k] = T_W_B_init.translation()[k];
 
-  ceres::Problem problem;
-  problem.AddParameterBlock(q, 4, factors::newQuaternionManifold());
-  problem.AddParameterBlock(p, 3);
+  // The window's own minimiser (Ceres' LM steps; landmark_schur.hpp) on the pose's two blocks.
+  ceres::HuberLoss huber(model.bearing_huber);
+  std::vector<std::unique_ptr<ceres::CostFunction>> costs;
+  costs.reserve(n + 1);
   for (std::size_t i = 0; i < n; ++i) {
     // (The virtual anchor's camera is the rig's; the frame's is at its sighting's row.)
-    auto* cost = camera(i).matrix() == model.T_B_C.matrix()
-                     ? new factors::BearingFactor(anchors[i].bearing, bearings_C[i], model.T_B_C,
-                                                  model.bearing_sigma_rad)
-                     : new factors::BearingFactor(anchors[i].bearing, bearings_C[i], model.T_B_C,
-                                                  camera(i),
-                                                  Mat2::Identity() / model.bearing_sigma_rad);
-    problem.AddResidualBlock(cost, new ceres::HuberLoss(model.bearing_huber),
-                             {anchors[i].q, anchors[i].p, q, p, anchors[i].rho});
-    problem.SetParameterBlockConstant(anchors[i].q);
-    problem.SetParameterBlockConstant(anchors[i].p);
-    problem.SetParameterBlockConstant(anchors[i].rho);
+    auto factor = camera(i).matrix() == model.T_B_C.matrix()
+                      ? std::make_unique<factors::BearingFactor>(
+                            anchors[i].bearing, bearings_C[i], model.T_B_C, model.bearing_sigma_rad)
+                      : std::make_unique<factors::BearingFactor>(
+                            anchors[i].bearing, bearings_C[i], model.T_B_C, camera(i),
+                            Mat2::Identity() / model.bearing_sigma_rad);
+    costs.push_back(std::make_unique<HeldPointBearing>(std::move(factor), anchors[i].q,
+                                                       anchors[i].p, anchors[i].rho));
   }
+  const std::vector<double*> pose = {q, p};
+  std::vector<LmResidual> residuals;
+  residuals.reserve(n + 1);
+  for (std::size_t i = 0; i < n; ++i) residuals.push_back({costs[i].get(), &huber, &pose});
   if (R_W_B_prior) {
     factors::Mat6 info = factors::Mat6::Zero();
     info.topLeftCorner<3, 3>() = Mat3::Identity() / (prior_sigma_rad * prior_sigma_rad);
     SE3 T0 = SE3::Identity();
     T0.linear() = *R_W_B_prior;
-    problem.AddResidualBlock(new factors::PosePriorFactor(T0, info), nullptr, q, p);
+    costs.push_back(std::make_unique<factors::PosePriorFactor>(T0, info));
+    residuals.push_back({costs.back().get(), nullptr, &pose});
   }
-  ceres::Solver::Options so;
-  so.linear_solver_type = ceres::DENSE_QR;
-  so.max_num_iterations = max_iterations;
-  so.num_threads = 1;
-  so.logging_type = ceres::SILENT;
-  ceres::Solver::Summary s;
-  ceres::Solve(so, &problem, &s);
-  if (s.termination_type == ceres::FAILURE) return std::nullopt;
+  std::unordered_map<const double*, LmBlockInfo> info;
+  info[q].quaternion = true;
+  LmOptions lo;
+  lo.max_iterations = max_iterations;
+  if (solveLandmarkSchur(residuals, info, lo).failed) return std::nullopt;
 
   PoseRefinement out;
   out.T_W_B = SE3::Identity();
