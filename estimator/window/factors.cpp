@@ -39,10 +39,18 @@ using Keyframes = std::vector<Keyframe*>;
 using Landmarks = std::unordered_map<TrackId, Landmark>;
 using KeyframesById = std::unordered_map<int, Keyframe*>;
 
+// Whether a landmark's factors are left out: when `seen_by` is given, only those of the landmarks
+// it sees or anchors are built.
+bool leftOut(const Keyframe* seen_by, TrackId id, const Landmark& lm) {
+  return seen_by != nullptr && lm.anchor_kf != seen_by->id && !seen_by->observations.count(id);
+}
+
 // Each landmark's sightings against its anchor (or, with bearing steps, against the previous one).
 void addBearingFactors(const Keyframes& keyframes, const KeyframesById& kf_of, Landmarks& landmarks,
-                       const WindowModel& model, std::vector<FactorSpec>& out) {
+                       const WindowModel& model, const Keyframe* seen_by,
+                       std::vector<FactorSpec>& out) {
   for (auto& [id, lm] : landmarks) {
+    if (leftOut(seen_by, id, lm)) continue;
     auto anchor_it = kf_of.find(lm.anchor_kf);
     // (a point at infinity, rho 0, still gives its bearings: they hold the rotations)
     if (anchor_it == kf_of.end() || !(lm.rho[0] >= 0.0)) continue;
@@ -94,9 +102,11 @@ void addBearingFactors(const Keyframes& keyframes, const KeyframesById& kf_of, L
 
 // Ground landmarks on their anchor's terrain plane, and the planes' walk between keyframes.
 void addTerrainFactors(const Keyframes& keyframes, const KeyframesById& kf_of, Landmarks& landmarks,
-                       const WindowModel& model, std::vector<FactorSpec>& out) {
+                       const WindowModel& model, const Keyframe* seen_by,
+                       std::vector<FactorSpec>& out) {
   if (!usesTerrain(model)) return;
   for (auto& [id, lm] : landmarks) {
+    if (leftOut(seen_by, id, lm)) continue;
     auto a = kf_of.find(lm.anchor_kf);
     if (!lm.on_ground || a == kf_of.end() || !a->second->terrain_set ||
         !(lm.rho[0] > kMinRangedRho))
@@ -130,12 +140,15 @@ void addTerrainFactors(const Keyframes& keyframes, const KeyframesById& kf_of, L
 // Ground landmarks' depth below their anchor camera (the camera height, corrected by the
 // camera_height_offset_m state when given); true when a factor uses that state.
 bool addGroundFactors(const KeyframesById& kf_of, Landmarks& landmarks, const WindowModel& model,
-                      double* camera_height_offset_m, std::vector<FactorSpec>& out) {
+                      double* camera_height_offset_m, const Keyframe* seen_by,
+                      std::vector<FactorSpec>& out) {
   const bool with_height = camera_height_offset_m != nullptr;
   bool height_used = false;
   if (model.camera_height_m > 0.0) {
     for (auto& [id, lm] : landmarks) {
-      if (!lm.on_ground || !kf_of.count(lm.anchor_kf) || !(lm.rho[0] > kMinRangedRho)) continue;
+      if (!lm.on_ground || !kf_of.count(lm.anchor_kf) || !(lm.rho[0] > kMinRangedRho) ||
+          leftOut(seen_by, id, lm))
+        continue;
       FactorSpec f;
       f.kind = FactorKind::kGround;
       if (with_height) {
@@ -159,14 +172,17 @@ bool addGroundFactors(const KeyframesById& kf_of, Landmarks& landmarks, const Wi
 
 // Every keyframe's LiDAR ranges to the landmarks it measured.
 void addLidarFactors(const Keyframes& keyframes, const KeyframesById& kf_of, Landmarks& landmarks,
-                     const WindowModel& model, std::vector<FactorSpec>& out) {
+                     const WindowModel& model, const Keyframe* seen_by,
+                     std::vector<FactorSpec>& out) {
   for (Keyframe* kf : keyframes) {
     for (const LidarAssociation& a : kf->lidar) {
       auto lm_it = landmarks.find(a.track_id);
       if (lm_it == landmarks.end()) continue;
       Landmark& lm = lm_it->second;
       auto anchor_it = kf_of.find(lm.anchor_kf);
-      if (anchor_it == kf_of.end() || !(lm.rho[0] > kMinRangedRho)) continue;
+      if (anchor_it == kf_of.end() || !(lm.rho[0] > kMinRangedRho) ||
+          leftOut(seen_by, a.track_id, lm))
+        continue;
       FactorSpec f;
       f.kind = FactorKind::kLidar;
       if (model.lidar_cauchy)
@@ -321,15 +337,17 @@ std::vector<FactorSpec> buildFactors(const std::vector<Keyframe*>& keyframes,
                                      std::unordered_map<TrackId, Landmark>& landmarks,
                                      const WindowModel& model, const WindowGauge& gauge,
                                      const FactorLedger* ledger, double* time_offset_s,
-                                     double* camera_height_offset_m, double* gravity) {
+                                     double* camera_height_offset_m, double* gravity,
+                                     const Keyframe* seen_by) {
   std::vector<FactorSpec> out;
   const auto kf_of = keyframesById(keyframes);
-  addBearingFactors(keyframes, kf_of, landmarks, model, out);
-  addTerrainFactors(keyframes, kf_of, landmarks, model, out);
+  addBearingFactors(keyframes, kf_of, landmarks, model, seen_by, out);
+  addTerrainFactors(keyframes, kf_of, landmarks, model, seen_by, out);
   const bool with_height = camera_height_offset_m != nullptr && estimatesCameraHeight(model);
-  const bool height_used = addGroundFactors(kf_of, landmarks, model,
-                                            with_height ? camera_height_offset_m : nullptr, out);
-  addLidarFactors(keyframes, kf_of, landmarks, model, out);
+  const bool height_used =
+      addGroundFactors(kf_of, landmarks, model, with_height ? camera_height_offset_m : nullptr,
+                       seen_by, out);
+  addLidarFactors(keyframes, kf_of, landmarks, model, seen_by, out);
   const bool with_offset = time_offset_s != nullptr && estimatesTimeOffset(model);
   const bool offset_used =
       addGyroFactors(keyframes, model, with_offset ? time_offset_s : nullptr, out);

@@ -49,13 +49,17 @@ struct FactorSpec {
 /// factors take it as a state and it gets its prior; likewise the camera-height factors with a
 /// camera_height_offset_m block (WindowMap::camera_height_offset_m) and
 /// estimatesCameraHeight(model); and the accelerometer's factors with a gravity block
-/// (WindowMap::gravity) and usesAccel(model).
+/// (WindowMap::gravity) and usesAccel(model). With `seen_by`, the landmarks' factors (bearing,
+/// terrain point, ground, LiDAR) are built only for the landmarks it observes or anchors (the
+/// marginalisation wants those touching its keyframe; the camera height's prior then counts
+/// only their ground factors as its use).
 std::vector<FactorSpec> buildFactors(const std::vector<Keyframe*>& keyframes,
                                      std::unordered_map<TrackId, Landmark>& landmarks,
                                      const WindowModel& model, const WindowGauge& gauge,
                                      const FactorLedger* ledger = nullptr,
                                      double* time_offset_s = nullptr,
                                      double* camera_height_offset_m = nullptr,
-                                     double* gravity = nullptr);
+                                     double* gravity = nullptr,
+                                     const Keyframe* seen_by = nullptr);
 
 }  // namespace ovo::estimator

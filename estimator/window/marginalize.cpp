@@ -15,9 +15,11 @@ std::shared_ptr<const factors::MarginalizationInfo> marginalizeOldest(
   std::vector<Keyframe*> kfs;
   for (auto& kf : map.keyframes) kfs.push_back(kf.get());
 
+  // Only the landmarks the oldest keyframe sees or anchors can have factors on its states or end
+  // with it (a LiDAR range pairs a beam with a sighting).
   std::vector<FactorSpec> all = buildFactors(kfs, map.landmarks, model, gauge, ledger,
                                              map.time_offset_s, map.camera_height_offset_m,
-                                             map.gravity);
+                                             map.gravity, oldest);
   auto info = std::make_shared<factors::MarginalizationInfo>();
   for (Keyframe* kf : kfs) {
     info->setQuaternionBlock(kf->q_W_B);
