@@ -111,6 +111,7 @@ void WindowCore::solveWindow() {
   SolveOptions so;
   so.linear_solver = options_.linear_solver;
   so.max_iterations = options_.max_iterations;
+  so.stop_decrease = options_.solver_stop_decrease;
   so.max_time_s = options_.max_solver_time_s;
   so.time_offset = {map_.time_offset_s, options_.time_offset_max_s};
   so.camera_height_offset = {map_.camera_height_offset_m,

@@ -573,6 +573,7 @@ LmSummary Solver::run() {
       for (const Block& b : blocks_)
         if (b.state >= 0) std::copy_n(b.x, b.ambient, x_.data() + b.state);
       x_norm = x_.norm();
+      const double cost_before = cost;
       cost = candidate;
       summary.final_cost = cost;
       ++summary.accepted;
@@ -580,6 +581,10 @@ LmSummary Solver::run() {
                         radius / std::max(1.0 / 3.0, 1.0 - std::pow(2.0 * relative_decrease - 1.0,
                                                                     3)));
       decrease_factor = 2.0;
+      if (cost_before - cost < options_.stop_decrease * cost_before) {
+        summary.message = "cost decrease below stop_decrease";
+        break;
+      }
       if (it + 1 < options_.max_iterations) {
         if (!evaluate(true, &cost, &r_)) {
           summary.failed = true;

@@ -42,6 +42,8 @@ struct LmResidual {
 
 struct LmOptions {
   int max_iterations = 4;              // steps, accepted or not (Ceres' max_num_iterations)
+  double stop_decrease = 0.0;          // stop after an accepted step that lowered the cost by
+                                       // less than this fraction (0: off, as Ceres)
   double max_time_s = 0.0;             // 0: no limit
   double function_tolerance = 1e-6;    // Ceres' defaults from here on
   double parameter_tolerance = 1e-8;

@@ -132,6 +132,8 @@ WindowOptions readWindowOptions(const Config& c) {
        {"dense_schur", LinearSolver::kDenseSchur},
        {"sparse_schur", LinearSolver::kSparseSchur}});
   o.max_iterations = c.getIntInRange(p + "max_iterations", o.max_iterations, 1, 1000);
+  o.solver_stop_decrease =
+      c.getInRange(p + "solver_stop_decrease", o.solver_stop_decrease, 0.0, 1.0);
   o.max_solver_time_s = c.getInRange(p + "max_solver_time_s", o.max_solver_time_s, 0.0, 100.0);
   o.motion_only_iterations =
       c.getIntInRange(p + "motion_only_iterations", o.motion_only_iterations, 1, 100);

@@ -201,6 +201,8 @@ struct WindowOptions {
   // Solver.
   LinearSolver linear_solver = LinearSolver::kLandmarkSchur;
   int max_iterations = 4;                 // per window solve (warm-started by the last)
+  double solver_stop_decrease = 0.01;     // landmark_schur: stop after a step that lowered the
+                                          // cost by less than this fraction (0: off)
   double max_solver_time_s = 0.0;         // per window solve, s; 0 = no limit (online: ~0.04)
   int motion_only_iterations = 5;         // per-frame pose refinement
   bool frame_rotation_from_gyro = true;   // a frame between keyframes takes its keyframe's

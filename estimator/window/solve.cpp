@@ -102,6 +102,7 @@ LmSummary solveOwn(std::vector<FactorSpec>& factors, const std::vector<Keyframe*
   }
   LmOptions lo;
   lo.max_iterations = options.max_iterations;
+  lo.stop_decrease = options.stop_decrease;
   lo.max_time_s = options.max_time_s;
   return solveLandmarkSchur(residuals, info, lo);
 }

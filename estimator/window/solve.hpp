@@ -26,6 +26,7 @@ struct ScalarState {
 struct SolveOptions {
   LinearSolver linear_solver = LinearSolver::kLandmarkSchur;
   int max_iterations = 8;
+  double stop_decrease = 0.0;  // landmark_schur's (LmOptions::stop_decrease)
   double max_time_s = 0.0;  // 0: unlimited
   int num_threads = 1;
   ScalarState time_offset;           // s

@@ -217,6 +217,30 @@ TEST(LandmarkSchur, RejectsAndShrinksAsCeresDoesFromAFarStart) {
   for (double rho : own.rho) EXPECT_LE(rho, 0.08);
 }
 
+TEST(LandmarkSchur, StopsOnceAStepGainsLittle) {
+  // Without the rule it takes every step it is given; with it, it stops after the first step
+  // that lowers the cost by less than the fraction, close to where the full solve ends.
+  SolveSetup setup;
+  setup.iterations = 20;
+  Bundle full(100, 0.05, 3), stopped(100, 0.05, 3);
+  const LmSummary f = solveOwn(full, setup);
+  std::vector<LmResidual> residuals;
+  for (const auto& r : stopped.residuals)
+    residuals.push_back({r.cost.get(), r.robust ? &stopped.huber : nullptr, &r.blocks});
+  std::unordered_map<const double*, LmBlockInfo> info;
+  for (auto& qk : stopped.q) info[qk.data()].quaternion = true;
+  for (double& rho : stopped.rho) info[&rho] = {false, false, true, 1e-4, setup.max_rho};
+  LmOptions options;
+  options.max_iterations = setup.iterations;
+  options.stop_decrease = 1e-3;
+  const LmSummary s = solveLandmarkSchur(residuals, info, options);
+  ASSERT_FALSE(s.failed) << s.message;
+  EXPECT_LT(s.iterations, f.iterations);
+  EXPECT_EQ(s.message, "cost decrease below stop_decrease");
+  EXPECT_LT(s.final_cost, 0.5 * s.initial_cost);
+  EXPECT_LT(s.final_cost - f.final_cost, 1e-2 * f.final_cost);
+}
+
 // A factor that cannot be evaluated at the start: the solve fails and leaves the states.
 struct Unevaluable final : ceres::SizedCostFunction<1, 3> {
   bool Evaluate(double const* const*, double*, double**) const override { return false; }
