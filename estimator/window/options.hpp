@@ -9,8 +9,9 @@
 
 namespace ovo::estimator {
 
-/// Linear solver of the window's Ceres problem (DESIGN section 7: both measured, dense wins at 10
-/// keyframes).
+/// How the window's problem is solved: the window's own Levenberg-Marquardt with the inverse
+/// depths eliminated by hand (landmark_schur.hpp; Ceres' steps in less time), or Ceres with a
+/// dense or sparse Schur solver (DESIGN section 7: both measured, dense wins at 10 keyframes).
 enum class LinearSolver { kLandmarkSchur, kDenseSchur, kSparseSchur };
 /// Whether the run ends with a batch re-optimisation of every keyframe (offline only).
 enum class RefineMode { kNone, kFull };

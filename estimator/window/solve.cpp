@@ -10,8 +10,8 @@
 #include <limits>
 #include <unordered_set>
 
-#include "factors/accel_factor.hpp"
 #include "estimator/window/landmark_schur.hpp"
+#include "factors/accel_factor.hpp"
 #include "factors/bearing_factor.hpp"
 #include "factors/parameterization.hpp"
 

@@ -1,5 +1,6 @@
-// Solving the window's factors with Ceres: the problem built from the factor list, the scalar
-// states bounded or held, and every state restored when the solve fails or diverges.
+// Solving the window's factors with its own minimiser (landmark_schur.hpp) or with Ceres: the
+// problem made from the factor list, the scalar states bounded or held, and every state restored
+// when the solve fails or diverges.
 #pragma once
 
 #include <string>
