@@ -161,7 +161,7 @@ ceres::Solver::Summary solveWithCeres(Bundle& bundle, const SolveSetup& setup) {
   return summary;
 }
 
-LmSummary solveOwn(Bundle& bundle, const SolveSetup& setup) {
+LmSummary solveOwn(Bundle& bundle, const SolveSetup& setup, double stop_decrease = 0.0) {
   std::vector<LmResidual> residuals;
   for (const auto& r : bundle.residuals)
     residuals.push_back({r.cost.get(), r.robust ? &bundle.huber : nullptr, &r.blocks});
@@ -171,6 +171,7 @@ LmSummary solveOwn(Bundle& bundle, const SolveSetup& setup) {
   if (setup.hold_first_bias) info[bundle.b[0].data()].constant = true;
   LmOptions options;
   options.max_iterations = setup.iterations;
+  options.stop_decrease = stop_decrease;
   return solveLandmarkSchur(residuals, info, options);
 }
 
@@ -224,16 +225,7 @@ TEST(LandmarkSchur, StopsOnceAStepGainsLittle) {
   setup.iterations = 20;
   Bundle full(100, 0.05, 3), stopped(100, 0.05, 3);
   const LmSummary f = solveOwn(full, setup);
-  std::vector<LmResidual> residuals;
-  for (const auto& r : stopped.residuals)
-    residuals.push_back({r.cost.get(), r.robust ? &stopped.huber : nullptr, &r.blocks});
-  std::unordered_map<const double*, LmBlockInfo> info;
-  for (auto& qk : stopped.q) info[qk.data()].quaternion = true;
-  for (double& rho : stopped.rho) info[&rho] = {false, false, true, 1e-4, setup.max_rho};
-  LmOptions options;
-  options.max_iterations = setup.iterations;
-  options.stop_decrease = 1e-3;
-  const LmSummary s = solveLandmarkSchur(residuals, info, options);
+  const LmSummary s = solveOwn(stopped, setup, 1e-3);
   ASSERT_FALSE(s.failed) << s.message;
   EXPECT_LT(s.iterations, f.iterations);
   EXPECT_EQ(s.message, "cost decrease below stop_decrease");
