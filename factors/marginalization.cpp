@@ -6,6 +6,7 @@
 
 #include "common/so3.hpp"
 #include "factors/parameterization.hpp"
+#include "factors/robust_correction.hpp"
 
 namespace ovo::factors {
 
@@ -61,17 +62,9 @@ bool MarginalizationInfo::addResidualBlock(const ceres::CostFunction* cost,
     const double sq_norm = lin.residual.squaredNorm();
     double rho[3];
     loss->Evaluate(sq_norm, rho);
-    const double sqrt_rho1 = std::sqrt(std::max(rho[1], 0.0));
-    double residual_scaling = sqrt_rho1, alpha_sq_norm = 0.0;
-    if (sq_norm > 0.0 && rho[2] > 0.0 && rho[1] > 0.0) {
-      const double alpha = 1.0 - std::sqrt(1.0 + 2.0 * sq_norm * rho[2] / rho[1]);
-      residual_scaling = sqrt_rho1 / (1.0 - alpha);
-      alpha_sq_norm = alpha / sq_norm;
-    }
-    for (auto& J : jac) {
-      J = sqrt_rho1 * (J - alpha_sq_norm * lin.residual * (lin.residual.transpose() * J));
-    }
-    lin.residual *= residual_scaling;
+    const RobustCorrection correction(sq_norm, rho);
+    for (auto& J : jac) correction.correctJacobian(J, lin.residual);
+    correction.correctResidual(lin.residual);
   }
 
   for (std::size_t i = 0; i < blocks.size(); ++i) {

@@ -8,6 +8,9 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <optional>
+
+#include "factors/robust_correction.hpp"
 
 namespace ovo::estimator {
 namespace {
@@ -102,8 +105,7 @@ class Solver {
 };
 
 Solver::Solver(const std::vector<LmResidual>& residuals,
-               const std::unordered_map<const double*, LmBlockInfo>& info,
-               const LmOptions& options)
+               const std::unordered_map<const double*, LmBlockInfo>& info, const LmOptions& options)
     : options_(options) {
   std::unordered_map<const double*, int> index;
   index.reserve(info.size() + 64);
@@ -214,27 +216,18 @@ bool Solver::evaluate(bool jacobians, double* cost, std::vector<double>* residua
       }
     }
     double* r = residuals->data() + res.r;
-    if (!res.cost->Evaluate(params_.data() + res.first, r, jacobians ? jac : nullptr))
-      return false;
+    if (!res.cost->Evaluate(params_.data() + res.first, r, jacobians ? jac : nullptr)) return false;
     const double sq = ConstVecMap(r, res.m).squaredNorm();
     if (!std::isfinite(sq)) return false;
-    // The robust loss as Ceres applies it (ceres/corrector.cc): the cost rho(|r|^2) / 2, the
-    // residual and the Jacobian scaled so that J^T J and J^T r are rho's Gauss-Newton terms.
+    // The robust loss as Ceres applies it: the cost rho(|r|^2) / 2, the Jacobian and residual
+    // corrected (factors/robust_correction.hpp).
     double rho[3] = {sq, 1.0, 0.0};
     if (res.loss) res.loss->Evaluate(sq, rho);
     total += 0.5 * rho[0];
     if (!jacobians) continue;
-    double sqrt_rho1 = 1.0, residual_scaling = 1.0, alpha_sq_norm = 0.0;
-    if (res.loss) {
-      sqrt_rho1 = std::sqrt(std::max(rho[1], 0.0));
-      residual_scaling = sqrt_rho1;
-      if (sq > 0.0 && rho[2] > 0.0 && rho[1] > 0.0) {
-        const double alpha = 1.0 - std::sqrt(1.0 + 2.0 * sq * rho[2] / rho[1]);
-        residual_scaling = sqrt_rho1 / (1.0 - alpha);
-        alpha_sq_norm = alpha / sq;
-      }
-    }
     const ConstVecMap rv(r, res.m);
+    const std::optional<factors::RobustCorrection> correction =
+        res.loss ? std::optional<factors::RobustCorrection>(std::in_place, sq, rho) : std::nullopt;
     for (int i = 0; i < res.count; ++i) {
       const Slot& slot = slots_[res.first + i];
       if (slot.jacobian < 0) continue;
@@ -249,14 +242,9 @@ bool Solver::evaluate(bool jacobians, double* cost, std::vector<double>* residua
       } else {
         Jt = Ja;
       }
-      if (alpha_sq_norm != 0.0) {
-        const Eigen::RowVectorXd rJ = rv.transpose() * Jt;
-        Jt = sqrt_rho1 * (Jt - alpha_sq_norm * rv * rJ);
-      } else if (res.loss) {
-        Jt *= sqrt_rho1;
-      }
+      if (correction) correction->correctJacobian(Jt, rv);
     }
-    if (res.loss) VecMap(r, res.m) *= residual_scaling;
+    if (correction) correction->correctResidual(VecMap(r, res.m));
   }
   *cost = total;
   return std::isfinite(total);
@@ -412,8 +400,7 @@ bool Solver::step(double radius, Eigen::VectorXd* delta) {
   for (const Block& b : blocks_) {
     if (b.reduced < 0) continue;
     for (int k = 0; k < b.tangent; ++k)
-      S_(b.reduced + k, b.reduced + k) +=
-          damping(diag_[b.step + k], scaling_[b.step + k], radius);
+      S_(b.reduced + k, b.reduced + k) += damping(diag_[b.step + k], scaling_[b.step + k], radius);
   }
   std::vector<double> h(landmarks_.size());
   const int n = num_reduced_;
@@ -577,9 +564,9 @@ LmSummary Solver::run() {
       cost = candidate;
       summary.final_cost = cost;
       ++summary.accepted;
-      radius = std::min(options_.max_radius,
-                        radius / std::max(1.0 / 3.0, 1.0 - std::pow(2.0 * relative_decrease - 1.0,
-                                                                    3)));
+      radius =
+          std::min(options_.max_radius,
+                   radius / std::max(1.0 / 3.0, 1.0 - std::pow(2.0 * relative_decrease - 1.0, 3)));
       decrease_factor = 2.0;
       if (cost_before - cost < options_.stop_decrease * cost_before) {
         summary.message = "cost decrease below stop_decrease";
