@@ -15,6 +15,7 @@
 #include "factors/lidar_range_factor.hpp"
 #include "factors/parameterization.hpp"
 #include "factors/pose_prior_factor.hpp"
+#include "tests/estimator/window/synthetic_bundle.hpp"
 
 namespace {
 
@@ -59,117 +60,10 @@ void BM_BearingFactorEval(benchmark::State& state) {
 }
 BENCHMARK(BM_BearingFactorEval)->Name("BM_BearingFactor/eval");
 
-// A window of 10 keyframes 0.3 m apart along a gently turning path, 100 landmarks 3..20 m away,
-// each anchored in one of the first keyframes and seen by the later ones; gyro factors and bias
-// random walk between consecutive keyframes, a gauge prior on keyframe 0, LiDAR ranges on 20
-// landmarks for scale. Initial values are perturbed; 10 Levenberg-Marquardt iterations at most.
-struct SyntheticWindow {
-  static constexpr int kKeyframes = 10;
-  static constexpr int kLandmarks = 100;
-  SE3 T_B_C = SE3::Identity(), T_B_L = SE3::Identity();
-  std::vector<SE3> T_W_B;
-  std::vector<std::array<double, 4>> q, q_init;
-  std::vector<std::array<double, 3>> p, p_init, b, b_init;
-  std::vector<double> rho, rho_init;
-  struct Residual {
-    std::shared_ptr<ceres::CostFunction> cost;
-    bool robust;
-    std::vector<double*> blocks;
-  };
-  std::vector<Residual> residuals;
-
-  SyntheticWindow() {
-    std::mt19937 rng(7);
-    std::normal_distribution<double> n(0.0, 1.0);
-    std::uniform_real_distribution<double> u(-1.0, 1.0);
-    T_B_C.linear() << 0, 0, 1, -1, 0, 0, 0, -1, 0;
-    T_B_L.translation() = Vec3(0.1, 0, 0.2);
-    q.resize(kKeyframes);
-    p.resize(kKeyframes);
-    b.resize(kKeyframes);
-    const Vec3 bias(0.01, -0.005, 0.02);
-    for (int k = 0; k < kKeyframes; ++k) {
-      SE3 T = SE3::Identity();
-      T.linear() = so3::exp(Vec3(0.01 * std::sin(k), 0.01, 0.05 * k));
-      T.translation() = Vec3(0.3 * k, 0.02 * k * k, 0.01 * std::sin(k));
-      T_W_B.push_back(T);
-      const Quat qk(so3::exp(0.01 * Vec3(n(rng), n(rng), n(rng))) * T.rotation());
-      quatToBlock(qk, q[k].data());
-      for (int i = 0; i < 3; ++i) p[k][i] = T.translation()[i] + 0.05 * n(rng);
-      b[k] = {0, 0, 0};
-    }
-    rho.reserve(kLandmarks);                   // blocks point into it
-    const double sigma_bearing = 1.0 / 305.0;  // 1 px at the RoMoVi fisheye's 305 px/rad
-    for (int l = 0; l < kLandmarks; ++l) {
-      const int anchor = l % 5;
-      const SE3 T_W_Ca = T_W_B[anchor] * T_B_C;
-      const Vec3 dir_C = Vec3(u(rng), 0.5 * u(rng), 1.0).normalized();
-      const double depth = 3.0 + 17.0 * 0.5 * (u(rng) + 1.0);
-      const Vec3 p_W = T_W_Ca * (depth * dir_C);
-      rho.push_back(1.0 / depth * (1.0 + 0.1 * n(rng)));
-      for (int j = anchor + 1; j < kKeyframes; ++j) {
-        const Vec3 b_Cj = ((T_W_B[j] * T_B_C).inverse() * p_W).normalized();
-        const Vec3 noisy = (b_Cj + sigma_bearing * Vec3(n(rng), n(rng), n(rng))).normalized();
-        residuals.push_back(
-            {std::make_shared<BearingFactor>(dir_C, noisy, T_B_C, sigma_bearing),
-             true,
-             {q[anchor].data(), p[anchor].data(), q[j].data(), p[j].data(), &rho[l]}});
-      }
-      if (l % 5 == 0) {
-        const double range = ((T_W_B[anchor] * T_B_L).inverse() * p_W).norm() + 0.03 * n(rng);
-        residuals.push_back(
-            {std::make_shared<LidarRangeAnchorFactor>(dir_C, range, T_B_C, T_B_L, 0.03),
-             true,
-             {&rho[l]}});
-      }
-    }
-    constexpr Timestamp kKeyframeStepNs = 500'000'000;
-    const auto samples = [&] {
-      std::vector<ImuSample> out;
-      for (int k = 0; k + 1 < kKeyframes; ++k) {
-        const Vec3 w = so3::log(T_W_B[k].rotation().transpose() * T_W_B[k + 1].rotation()) / 0.5;
-        for (Timestamp t = k * kKeyframeStepNs; t < (k + 1) * kKeyframeStepNs; t += 5'000'000) {
-          ImuSample s;
-          s.t_ns = t;
-          s.gyro_radps = w + bias + 0.003 * Vec3(n(rng), n(rng), n(rng));
-          out.push_back(s);
-        }
-      }
-      ImuSample last = out.back();
-      last.t_ns += 5'000'000;
-      out.push_back(last);
-      return out;
-    }();
-    for (int k = 0; k + 1 < kKeyframes; ++k) {
-      auto pre = std::make_shared<GyroPreintegration>(samples, k * kKeyframeStepNs,
-                                                      (k + 1) * kKeyframeStepNs, Vec3::Zero());
-      residuals.push_back(
-          {std::make_shared<GyroFactor>(pre), false, {q[k].data(), q[k + 1].data(), b[k].data()}});
-      residuals.push_back({std::make_shared<BiasRandomWalkFactor>(1e-4, 0.5),
-                           false,
-                           {b[k].data(), b[k + 1].data()}});
-    }
-    residuals.push_back(
-        {std::make_shared<PosePriorFactor>(T_W_B[0], PosePriorFactor::gaugeInformation(1e-3, 1e-3)),
-         false,
-         {q[0].data(), p[0].data()}});
-    q_init = q;
-    p_init = p;
-    b_init = b;
-    rho_init = rho;
-  }
-
-  // Restores the initial guess in place (the residuals point into these arrays).
-  void reset() {
-    std::copy(q_init.begin(), q_init.end(), q.begin());
-    std::copy(p_init.begin(), p_init.end(), p.begin());
-    std::copy(b_init.begin(), b_init.end(), b.begin());
-    std::copy(rho_init.begin(), rho_init.end(), rho.begin());
-  }
-};
-
+// tests/estimator/window/synthetic_bundle.hpp's bundle: 10 keyframes, 100 landmarks, no
+// mismatches; 10 Levenberg-Marquardt iterations at most.
 void BM_SyntheticWindowSolve(benchmark::State& state, ceres::LinearSolverType solver) {
-  SyntheticWindow window;
+  ovo::test::SyntheticBundle window(100, 0.0, 7);
   ceres::HuberLoss huber(1.0);
   ceres::EigenQuaternionManifold quat_manifold;
   ceres::Solver::Summary summary;
@@ -191,7 +85,7 @@ void BM_SyntheticWindowSolve(benchmark::State& state, ceres::LinearSolverType so
     options.num_threads = 1;
     auto ordering = std::make_shared<ceres::ParameterBlockOrdering>();
     for (double& rho : window.rho) ordering->AddElementToGroup(&rho, 0);
-    for (int k = 0; k < SyntheticWindow::kKeyframes; ++k) {
+    for (int k = 0; k < ovo::test::SyntheticBundle::kKeyframes; ++k) {
       ordering->AddElementToGroup(window.q[k].data(), 1);
       ordering->AddElementToGroup(window.p[k].data(), 1);
       ordering->AddElementToGroup(window.b[k].data(), 1);
