@@ -249,6 +249,16 @@ int runRun(const RunArgs& args) {
   metrics["time_offset_estimated"] = stats.time_offset_s.has_value();
   if (stats.camera_height_offset_m)
     metrics["camera_height_offset_m"] = *stats.camera_height_offset_m;
+  if (!stats.camera_height_path_m.empty()) {
+    std::vector<double> h = stats.camera_height_path_m;
+    std::sort(h.begin(), h.end());
+    metrics["camera_height_path_m"] = {{"min", h.front()},
+                                       {"median", h[h.size() / 2]},
+                                       {"max", h.back()},
+                                       {"keyframes", h.size()}};
+    if (stats.camera_height_path_sigma_m)
+      metrics["camera_height_path_m"]["sigma"] = *stats.camera_height_path_sigma_m;
+  }
   if (args.realtime) {
     metrics["realtime_rate"] = args.rate;
     metrics["timing"]["replay_lag_ms_max"] = replay_lag_ms_max;

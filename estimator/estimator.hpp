@@ -145,6 +145,11 @@ struct EstimatorStats {
   // window: the correction of the rig's camera height it estimated (the ground points it sees
   // lie this much further below the camera than the rig's height), m; none when not estimated.
   std::optional<double> camera_height_offset_m;
+  // window with window.camera_height_path: each keyframe's correction as it left the window (the
+  // last ones as they stand), in keyframe order, m; empty otherwise.
+  std::vector<double> camera_height_path_m;
+  // ... and its standard deviation along the path at the end (estimated or as set), m.
+  std::optional<double> camera_height_path_sigma_m;
   // window: the LiDAR range factors' residuals; none without LiDAR ranges.
   std::optional<LidarResidualStats> lidar_residuals;
 };

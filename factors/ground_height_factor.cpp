@@ -1,5 +1,8 @@
 #include "factors/ground_height_factor.hpp"
 
+#include <algorithm>
+#include <cmath>
+
 namespace ovo::factors {
 
 GroundHeightFactor::GroundHeightFactor(const Vec3& bearing_Ca, const Vec3& up_Ca,
@@ -27,6 +30,23 @@ bool GroundHeightCorrectedFactor::Evaluate(double const* const* parameters, doub
   if (!plain_.Evaluate(parameters, residuals, jacobians ? plain_jacobians : nullptr)) return false;
   residuals[0] -= parameters[1][0] * inv_sigma_;
   if (jacobians && jacobians[1]) jacobians[1][0] = -inv_sigma_;
+  return true;
+}
+
+CameraHeightWalkFactor::CameraHeightWalkFactor(double distance_m, double sigma_m, double length_m) {
+  // A floor of 0.1 mm driven: two keyframes at one place are tied tightly, not infinitely.
+  constexpr double kMinDistanceM = 1e-4;
+  a_ = std::exp(-std::max(distance_m, kMinDistanceM) / length_m);
+  inv_sigma_ = 1.0 / (sigma_m * std::sqrt(1.0 - a_ * a_));
+}
+
+bool CameraHeightWalkFactor::Evaluate(double const* const* parameters, double* residuals,
+                                      double** jacobians) const {
+  residuals[0] = (parameters[1][0] - a_ * parameters[0][0]) * inv_sigma_;
+  if (jacobians) {
+    if (jacobians[0]) jacobians[0][0] = -a_ * inv_sigma_;
+    if (jacobians[1]) jacobians[1][0] = inv_sigma_;
+  }
   return true;
 }
 

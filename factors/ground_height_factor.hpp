@@ -43,4 +43,21 @@ class GroundHeightCorrectedFactor final : public ceres::SizedCostFunction<1, 1, 
   double inv_sigma_;
 };
 
+/// The camera-height correction along the path (WindowModel::camera_height_path_sigma_m): a
+/// first-order Gauss-Markov process in the distance driven, stationary standard deviation sigma
+/// (m) and correlation length L (m). Between keyframes d metres apart, with a = exp(-d / L):
+///   r = (dh_j - a dh_i) / (sigma sqrt(1 - a^2)),
+/// so that the correction wanders with the ground, by sigma sqrt(2 d / L) over a short d, but not
+/// while the robot stands (d = 0 ties the two, up to a floor of 0.1 mm on the distance).
+/// Blocks: dh_i[1], dh_j[1] (m).
+class CameraHeightWalkFactor final : public ceres::SizedCostFunction<1, 1, 1> {
+ public:
+  CameraHeightWalkFactor(double distance_m, double sigma_m, double length_m);
+  bool Evaluate(double const* const* parameters, double* residuals,
+                double** jacobians) const override;
+
+ private:
+  double a_, inv_sigma_;
+};
+
 }  // namespace ovo::factors

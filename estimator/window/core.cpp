@@ -390,6 +390,7 @@ Keyframe* WindowCore::addKeyframe(Timestamp t_ns, const SE3& T_W_B, const Vec3& 
     if (auto pi = preintegrate(prev.t_ns, t_ns, prev.bias()))
       kf->preint_from_prev = std::make_shared<factors::GyroPreintegration>(std::move(*pi));
     kf->accel_from_prev = accelInterval(prev.t_ns, t_ns, prev.bias());
+    kf->height_offset_m[0] = prev.height_offset_m[0];  // the ground goes on as it was
   }
   if (scan) kf->scan = *scan->scan;
   frames_.addKeyframeTime(kf->id, t_ns);
@@ -461,6 +462,10 @@ EstimatorStats WindowCore::stats() const {
   for (const auto& kf : map_.keyframes) countLidar(*kf, s);
   if (estimatesTimeOffset(model_)) s.time_offset_s = map_.time_offset_s[0];
   if (estimatesCameraHeight(model_)) s.camera_height_offset_m = map_.camera_height_offset_m[0];
+  if (followsCameraHeight(model_)) {
+    for (const auto& kf : map_.keyframes) s.camera_height_path_m.push_back(kf->height_offset_m[0]);
+    s.camera_height_path_sigma_m = model_.camera_height_path_sigma_m;
+  }
   return s;
 }
 

@@ -28,6 +28,7 @@
 #include "estimator/window/factors.hpp"
 #include "estimator/window/frame_log.hpp"
 #include "estimator/window/ground_chain.hpp"
+#include "estimator/window/ground_labels.hpp"
 #include "estimator/window/lidar_gate.hpp"
 #include "estimator/window/lidar_ranges.hpp"
 #include "estimator/window/map.hpp"
@@ -274,8 +275,10 @@ class WindowCore {
   // find it again before the window is rescaled to it: one keyframe's chance agreement (rows of
   // vines repeat) must not rescale a window whose ranges merely disagree.
   std::optional<double> searched_ratio_;
-  bool scale_known_ = true;   // false: the segment started at a unit baseline (rescaleToGround)
+  bool scale_known_ = true;  // false: the segment started at a unit baseline (rescaleToGround)
   std::vector<double> ground_heights_;  // the last labelGround's plane heights (rescaleToGround)
+  // The recent anchors' ground offsets (the camera height along the path's estimated sigma).
+  std::map<int, AnchorGroundOffset> ground_offsets_;
 
   // Last frame.
   bool have_last_ = false;

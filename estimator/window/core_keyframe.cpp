@@ -55,8 +55,8 @@ bool WindowCore::rescaleToLidar() {
   const auto ratio = lidar_.scaleRatio(map_, &searched);
   const auto previous = std::exchange(searched_ratio_, std::nullopt);
   if (!ratio || !(*ratio > 0.0)) return false;
-  if (searched && !(previous && std::abs(*ratio / *previous - 1.0) <=
-                                    options_.lidar_rescale_agreement)) {
+  if (searched &&
+      !(previous && std::abs(*ratio / *previous - 1.0) <= options_.lidar_rescale_agreement)) {
     searched_ratio_ = ratio;  // found once: again at the next keyframe before it counts
     return false;
   }
@@ -116,6 +116,7 @@ void WindowCore::solveWindow() {
   so.time_offset = {map_.time_offset_s, options_.time_offset_max_s};
   so.camera_height_offset = {map_.camera_height_offset_m,
                              5.0 * model_.camera_height_offset_sigma_m};
+  so.height_offset_max_abs = 5.0 * model_.camera_height_path_sigma_m;
   so.gravity = map_.gravity;
   const SolveSummary s = solveFactors(std::move(factors), kfs, map_.landmarks, model_, so);
   if (s.failed) {
@@ -146,6 +147,18 @@ std::optional<Eigen::Matrix<double, 6, 6>> WindowCore::newestPoseCovariance() {
 void WindowCore::labelGround() {
   ground_heights_ =
       labelGroundLandmarks(map_.landmarks, heightCorrectedModel(), options_, label_ground_options_);
+  if (followsCameraHeight(model_) && !(options_.camera_height_path_sigma_m > 0.0)) {
+    // The correction's strength from the ground the window sees: the anchors of the last
+    // keyframes (about 10 m at the simulated rows' spacing), each with enough ground points.
+    constexpr int kMinPoints = 5, kRecentAnchors = 30, kMinAnchors = 5;
+    for (const auto& [kf_id, o] : anchorGroundOffsets(map_.landmarks, model_, kMinPoints))
+      ground_offsets_[kf_id] = o;
+    while (static_cast<int>(ground_offsets_.size()) > kRecentAnchors)
+      ground_offsets_.erase(ground_offsets_.begin());
+    model_.camera_height_path_sigma_m =
+        pathHeightSigma(ground_offsets_, kMinAnchors, kPathHeightNoiseFloorM, kPathHeightSigmaMinM,
+                        kPathHeightSigmaMaxM);
+  }
 }
 
 WindowModel WindowCore::heightCorrectedModel() const {
@@ -167,6 +180,8 @@ void WindowCore::marginalize() {
     if (options_.refine == RefineMode::kFull) map_.rememberPoints(setup_.T_B_C);
     frames_.keepPoses(*oldest);
     countLidar(*oldest, stats_);
+    if (followsCameraHeight(model_))
+      stats_.camera_height_path_m.push_back(oldest->height_offset_m[0]);
     const int oldest_id = oldest->id;
     if (options_.refine == RefineMode::kFull)
       map_.archive.push_back(std::move(map_.keyframes.front()));

@@ -138,24 +138,27 @@ void addTerrainFactors(const Keyframes& keyframes, const KeyframesById& kf_of, L
 }
 
 // Ground landmarks' depth below their anchor camera (the camera height, corrected by the
-// camera_height_offset_m state when given); true when a factor uses that state.
+// camera_height_offset_m state when given, or by the anchor keyframe's correction along the
+// path); true when a factor uses the camera_height_offset_m state.
 bool addGroundFactors(const KeyframesById& kf_of, Landmarks& landmarks, const WindowModel& model,
                       double* camera_height_offset_m, const Keyframe* seen_by,
                       std::vector<FactorSpec>& out) {
-  const bool with_height = camera_height_offset_m != nullptr;
+  const bool path = followsCameraHeight(model);
   bool height_used = false;
   if (model.camera_height_m > 0.0) {
     for (auto& [id, lm] : landmarks) {
-      if (!lm.on_ground || !kf_of.count(lm.anchor_kf) || !(lm.rho[0] > kMinRangedRho) ||
+      const auto anchor = kf_of.find(lm.anchor_kf);
+      if (!lm.on_ground || anchor == kf_of.end() || !(lm.rho[0] > kMinRangedRho) ||
           leftOut(seen_by, id, lm))
         continue;
+      double* offset = path ? anchor->second->height_offset_m : camera_height_offset_m;
       FactorSpec f;
       f.kind = FactorKind::kGround;
-      if (with_height) {
+      if (offset != nullptr) {
         f.cost = std::make_unique<factors::GroundHeightCorrectedFactor>(
             lm.bearing_anchor_C, lm.ground_up_C, model.camera_height_m, model.ground_sigma_m);
-        f.blocks = {lm.rho, camera_height_offset_m};
-        height_used = true;
+        f.blocks = {lm.rho, offset};
+        height_used = !path;
       } else {
         f.cost = std::make_unique<factors::GroundHeightFactor>(
             lm.bearing_anchor_C, lm.ground_up_C, model.camera_height_m, model.ground_sigma_m);
@@ -168,6 +171,36 @@ bool addGroundFactors(const KeyframesById& kf_of, Landmarks& landmarks, const Wi
     }
   }
   return height_used;
+}
+
+// The camera height's correction along the path: its walk between the keyframes of a segment,
+// and its prior about the rig's height on a segment's first keyframe unless the marginalisation
+// prior already holds that keyframe's correction.
+void addCameraHeightPathFactors(const Keyframes& keyframes, const WindowModel& model,
+                                const WindowGauge& gauge, std::vector<FactorSpec>& out) {
+  if (!followsCameraHeight(model)) return;
+  const auto& kept =
+      gauge.marginalization ? gauge.marginalization->keptBlocks() : std::vector<double*>{};
+  for (std::size_t k = 0; k < keyframes.size(); ++k) {
+    Keyframe* j = keyframes[k];
+    Keyframe* i = k > 0 && keyframes[k - 1]->segment == j->segment ? keyframes[k - 1] : nullptr;
+    FactorSpec f;
+    f.kf_id = j->id;
+    if (i != nullptr) {
+      f.kind = FactorKind::kCameraHeightWalk;
+      f.cost = std::make_unique<factors::CameraHeightWalkFactor>(
+          (j->pose().translation() - i->pose().translation()).norm(),
+          model.camera_height_path_sigma_m, model.camera_height_path_length_m);
+      f.blocks = {i->height_offset_m, j->height_offset_m};
+    } else if (std::find(kept.begin(), kept.end(), j->height_offset_m) == kept.end()) {
+      f.kind = FactorKind::kCameraHeightPrior;
+      f.cost = std::make_unique<factors::ScalarPriorFactor>(0.0, model.camera_height_path_sigma_m);
+      f.blocks = {j->height_offset_m};
+    } else {
+      continue;
+    }
+    out.push_back(std::move(f));
+  }
 }
 
 // Every keyframe's LiDAR ranges to the landmarks it measured.
@@ -344,9 +377,9 @@ std::vector<FactorSpec> buildFactors(const std::vector<Keyframe*>& keyframes,
   addBearingFactors(keyframes, kf_of, landmarks, model, seen_by, out);
   addTerrainFactors(keyframes, kf_of, landmarks, model, seen_by, out);
   const bool with_height = camera_height_offset_m != nullptr && estimatesCameraHeight(model);
-  const bool height_used =
-      addGroundFactors(kf_of, landmarks, model, with_height ? camera_height_offset_m : nullptr,
-                       seen_by, out);
+  const bool height_used = addGroundFactors(
+      kf_of, landmarks, model, with_height ? camera_height_offset_m : nullptr, seen_by, out);
+  addCameraHeightPathFactors(keyframes, model, gauge, out);
   addLidarFactors(keyframes, kf_of, landmarks, model, seen_by, out);
   const bool with_offset = time_offset_s != nullptr && estimatesTimeOffset(model);
   const bool offset_used =

@@ -13,19 +13,21 @@
 namespace ovo::estimator {
 
 enum class FactorKind {
-  kBearing,           // a sighting of a landmark (anchor-relative or a step from the previous one)
-  kGyro,              // preintegrated gyro rotation from the previous keyframe
-  kBiasWalk,          // gyro bias random walk from the previous keyframe
-  kBiasPrior,         // the gauge keyframe's bias prior
-  kZeroRate,          // a standstill's zero-rate update on a keyframe's bias
-  kPosePrior,         // the gauge keyframe's pose prior
-  kLidar,             // a LiDAR range (or ground-plane height) to a landmark
-  kMarginal,          // the marginalisation prior
-  kGround,            // a ground landmark's height below its anchor camera
-  kTerrain,           // a ground landmark on its anchor's terrain plane (track) or the plane's walk
-  kRotationTie,       // a keyframe's vision orientation tied to its gyro chain's
-  kTimeOffsetPrior,   // the camera-gyro time offset's prior (stays in the window)
-  kCameraHeightPrior,  // the camera height correction's prior (stays in the window)
+  kBearing,          // a sighting of a landmark (anchor-relative or a step from the previous one)
+  kGyro,             // preintegrated gyro rotation from the previous keyframe
+  kBiasWalk,         // gyro bias random walk from the previous keyframe
+  kBiasPrior,        // the gauge keyframe's bias prior
+  kZeroRate,         // a standstill's zero-rate update on a keyframe's bias
+  kPosePrior,        // the gauge keyframe's pose prior
+  kLidar,            // a LiDAR range (or ground-plane height) to a landmark
+  kMarginal,         // the marginalisation prior
+  kGround,           // a ground landmark's height below its anchor camera
+  kTerrain,          // a ground landmark on its anchor's terrain plane (track) or the plane's walk
+  kRotationTie,      // a keyframe's vision orientation tied to its gyro chain's
+  kTimeOffsetPrior,  // the camera-gyro time offset's prior (stays in the window)
+  kCameraHeightPrior,  // the camera height correction's prior (the run's: stays in the window;
+                       // along the path: on a segment's first keyframe, kf_id)
+  kCameraHeightWalk,   // the path's camera height correction from the previous keyframe
   kAccel,              // the accelerometer between three keyframes (kf_id: the middle one)
   kAccelBiasPrior      // the accelerometer bias's prior (stays in the window)
 };

@@ -42,6 +42,7 @@ void Keyframe::copyStates(const Keyframe& from) {
   std::copy_n(from.b_g, 3, b_g);
   std::copy_n(from.terrain, 3, terrain);
   terrain_set = from.terrain_set;
+  height_offset_m[0] = from.height_offset_m[0];
 }
 
 void Keyframe::setBias(const Vec3& b) {

@@ -85,6 +85,9 @@ struct Keyframe {
   /// seeded by seedTerrain (terrain_set) before its first solve.
   double terrain[3] = {0, 0, 0};
   bool terrain_set = false;
+  /// The camera's height over the ground it sees here less the rig's, m (WindowModel::
+  /// camera_height_path_sigma_m; stays 0 without it).
+  double height_offset_m[1] = {0.0};
   std::unordered_map<TrackId, TrackObservation> observations;
   /// Gyro preintegration from the previous keyframe of the same segment (null: none / no gyro).
   std::shared_ptr<factors::GyroPreintegration> preint_from_prev;
@@ -111,15 +114,17 @@ struct Keyframe {
   /// first row's; zero with a global shutter).
   Readout readout;
 
-  SE3 pose() const;                // as the vision sees it: q_W_B, p_W_B
+  SE3 pose() const;  // as the vision sees it: q_W_B, p_W_B
   /// The camera's pose in this keyframe's body row_s after its time (Readout::cameraAt).
   SE3 cameraAt(double row_s, const SE3& T_B_C) const { return readout.cameraAt(row_s, T_B_C); }
   /// The same at a sighting's row (o.row_s).
-  SE3 cameraAt(const TrackObservation& o, const SE3& T_B_C) const { return cameraAt(o.row_s, T_B_C); }
+  SE3 cameraAt(const TrackObservation& o, const SE3& T_B_C) const {
+    return cameraAt(o.row_s, T_B_C);
+  }
   SE3 bodyPose() const;            // the body's estimate: q_W_G, p_W_B (the output)
   void setPose(const SE3& T_W_B);  // sets q_W_G to the same orientation
-  /// Copies the states (q_W_B, q_W_G, p_W_B, b_g, terrain) of another keyframe, e.g. a batch
-  /// copy's.
+  /// Copies the states (q_W_B, q_W_G, p_W_B, b_g, terrain, height_offset_m) of another keyframe,
+  /// e.g. a batch copy's.
   void copyStates(const Keyframe& from);
   Vec3 bias() const { return Vec3(b_g[0], b_g[1], b_g[2]); }
   void setBias(const Vec3& b);

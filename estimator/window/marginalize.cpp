@@ -17,17 +17,18 @@ std::shared_ptr<const factors::MarginalizationInfo> marginalizeOldest(
 
   // Only the landmarks the oldest keyframe sees or anchors can have factors on its states or end
   // with it (a LiDAR range pairs a beam with a sighting).
-  std::vector<FactorSpec> all = buildFactors(kfs, map.landmarks, model, gauge, ledger,
-                                             map.time_offset_s, map.camera_height_offset_m,
-                                             map.gravity, oldest);
+  std::vector<FactorSpec> all =
+      buildFactors(kfs, map.landmarks, model, gauge, ledger, map.time_offset_s,
+                   map.camera_height_offset_m, map.gravity, oldest);
   auto info = std::make_shared<factors::MarginalizationInfo>();
   for (Keyframe* kf : kfs) {
     info->setQuaternionBlock(kf->q_W_B);
     if (tiedRotations(model)) info->setQuaternionBlock(kf->q_W_G);
   }
 
-  std::unordered_set<const double*> drop = {oldest->q_W_B, oldest->q_W_G, oldest->p_W_B,
-                                            oldest->b_g, oldest->terrain};
+  std::unordered_set<const double*> drop = {oldest->q_W_B,   oldest->q_W_G,
+                                            oldest->p_W_B,   oldest->b_g,
+                                            oldest->terrain, oldest->height_offset_m};
   for (auto& [id, lm] : map.landmarks)
     if (lm.anchor_kf == oldest->id && plan.marginalized.count(id)) drop.insert(lm.rho);
 

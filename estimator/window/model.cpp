@@ -54,6 +54,12 @@ WindowModel makeWindowModel(const SensorSetup& setup, const WindowOptions& optio
     model.ground_sigma_m = options.ground_height_sigma_m;
     if (options.estimate_camera_height && options.use_lidar && setup.has_lidar)
       model.camera_height_offset_sigma_m = options.camera_height_sigma_m;
+    if (options.camera_height_path && options.use_lidar && setup.has_lidar) {
+      model.camera_height_path_sigma_m = options.camera_height_path_sigma_m > 0.0
+                                             ? options.camera_height_path_sigma_m
+                                             : kPathHeightSigmaMinM;  // then estimated
+      model.camera_height_path_length_m = options.camera_height_path_length_m;
+    }
     model.terrain_planes = options.terrain_planes;
     model.terrain_slope_walk = options.terrain_slope_walk;
     model.terrain_height_walk = options.terrain_height_walk;

@@ -55,6 +55,10 @@ struct WindowModel {
   // A correction of camera_height_m (WindowMap::camera_height_offset_m): estimated with this
   // prior sigma about 0 when > 0 (with a LiDAR to see it), else none.
   double camera_height_offset_sigma_m = 0.0;
+  // The correction along the path instead (Keyframe::height_offset_m): its Gauss-Markov process's
+  // standard deviation (m; 0: none) and correlation length (m) in the distance driven.
+  double camera_height_path_sigma_m = 0.0;
+  double camera_height_path_length_m = 3.0;
   double ground_sigma_m = 0.03;  // camera-height factor noise, m
   double ground_huber = 2.0;     // its Huber threshold, sigmas
   // Terrain planes (with a camera height): a ground landmark also lies on its anchor's terrain
@@ -70,6 +74,19 @@ WindowModel makeWindowModel(const SensorSetup& setup, const WindowOptions& optio
 /// True when the model estimates a correction of the camera height (a height and a prior sigma).
 inline bool estimatesCameraHeight(const WindowModel& model) {
   return model.camera_height_m > 0.0 && model.camera_height_offset_sigma_m > 0.0;
+}
+
+/// The camera height along the path's sigma when estimated (window.camera_height_path_sigma_m 0):
+/// at least this (smooth ground; also before the ground says more), at most this, m; and the
+/// noise of one anchor keyframe's ground offset that its standard error leaves out (its pose, its
+/// plane's tilt: the smooth simulated row shows 4 mm of spread where the ground adds none), m.
+constexpr double kPathHeightSigmaMinM = 0.001;
+constexpr double kPathHeightSigmaMaxM = 0.05;
+constexpr double kPathHeightNoiseFloorM = 0.005;
+
+/// True when each keyframe carries a correction of the camera height (Keyframe::height_offset_m).
+inline bool followsCameraHeight(const WindowModel& model) {
+  return model.camera_height_m > 0.0 && model.camera_height_path_sigma_m > 0.0;
 }
 
 /// True when the keyframes' accelerometer intervals give tilt factors (needs the gyro to turn the

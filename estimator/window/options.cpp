@@ -1,6 +1,8 @@
 // Reading the window's options from a configuration.
 #include "estimator/window/options.hpp"
 
+#include "common/error.hpp"
+
 namespace ovo::estimator {
 
 WindowOptions readWindowOptions(const Config& c) {
@@ -126,11 +128,10 @@ WindowOptions readWindowOptions(const Config& c) {
   o.reinit_after_lost_frames =
       c.getIntInRange(p + "reinit_after_lost_frames", o.reinit_after_lost_frames, 1, 100000);
 
-  o.linear_solver = c.getEnum(
-      p + "linear_solver", o.linear_solver,
-      {{"landmark_schur", LinearSolver::kLandmarkSchur},
-       {"dense_schur", LinearSolver::kDenseSchur},
-       {"sparse_schur", LinearSolver::kSparseSchur}});
+  o.linear_solver = c.getEnum(p + "linear_solver", o.linear_solver,
+                              {{"landmark_schur", LinearSolver::kLandmarkSchur},
+                               {"dense_schur", LinearSolver::kDenseSchur},
+                               {"sparse_schur", LinearSolver::kSparseSchur}});
   o.max_iterations = c.getIntInRange(p + "max_iterations", o.max_iterations, 1, 1000);
   o.solver_stop_decrease =
       c.getInRange(p + "solver_stop_decrease", o.solver_stop_decrease, 0.0, 1.0);
@@ -155,6 +156,16 @@ WindowOptions readWindowOptions(const Config& c) {
   o.estimate_camera_height = c.get<bool>(p + "estimate_camera_height", o.estimate_camera_height);
   o.camera_height_sigma_m =
       c.getInRange(p + "camera_height_sigma_m", o.camera_height_sigma_m, 1e-4, 1.0);
+  o.camera_height_path = c.get<bool>(p + "camera_height_path", o.camera_height_path);
+  o.camera_height_path_sigma_m =
+      c.getInRange(p + "camera_height_path_sigma_m", o.camera_height_path_sigma_m, 0.0, 1.0);
+  o.camera_height_path_length_m =
+      c.getInRange(p + "camera_height_path_length_m", o.camera_height_path_length_m, 0.01, 1e4);
+  if (o.camera_height_path && o.estimate_camera_height)
+    fail(
+        "{}: {}camera_height_path and {}estimate_camera_height are two models of the camera's "
+        "height (along the path, or one for the run): set at most one of them to true",
+        c.location(p + "camera_height_path"), p, p);
   o.ground_max_distance_heights =
       c.getInRange(p + "ground_max_distance_heights", o.ground_max_distance_heights, 0.1, 1000.0);
   o.ground_min_depression_deg =

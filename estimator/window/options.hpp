@@ -121,6 +121,14 @@ struct WindowOptions {
                                         // sees lie higher or lower than the rig's height says).
                                         // Off: it lets the LiDAR's own scale bias in (README)
   double camera_height_sigma_m = 0.02;  // its prior about 0 (bounded to 5 of these), m
+  // The camera's height over the ground it sees as a state of every keyframe (with a LiDAR; not
+  // with estimate_camera_height): a correction of the rig's height that follows the terrain along
+  // the path, a Gauss-Markov process in the distance driven (factors::CameraHeightWalkFactor),
+  // observed by the ground landmarks against the LiDAR's scale.
+  bool camera_height_path = false;
+  double camera_height_path_sigma_m = 0.0;      // its standard deviation about the rig's height, m
+                                                // (0: estimated from the ground seen, kPathHeight*)
+  double camera_height_path_length_m = 3.0;     // its correlation length along the path, m
   double ground_max_distance_heights = 6.0;     // ground points used up to this distance, in camera
                                                 // heights (6 m at 1 m; 9.9 m at KITTI's 1.65 m,
                                                 // whose nearest visible ground is 6.3 m away)

@@ -3,12 +3,12 @@
 // when the solve fails or diverges.
 #pragma once
 
+#include <ceres/problem.h>
+
 #include <string>
 #include <unordered_map>
 #include <unordered_set>
 #include <vector>
-
-#include <ceres/problem.h>
 
 #include "estimator/window/factors.hpp"
 #include "estimator/window/options.hpp"
@@ -28,11 +28,12 @@ struct SolveOptions {
   LinearSolver linear_solver = LinearSolver::kLandmarkSchur;
   int max_iterations = 8;
   double stop_decrease = 0.0;  // landmark_schur's (LmOptions::stop_decrease)
-  double max_time_s = 0.0;  // 0: unlimited
+  double max_time_s = 0.0;     // 0: unlimited
   int num_threads = 1;
-  ScalarState time_offset;           // s
-  ScalarState camera_height_offset;  // m
-  double* gravity = nullptr;  // WindowMap::gravity (restored with the rest on failure)
+  ScalarState time_offset;             // s
+  ScalarState camera_height_offset;    // m
+  double height_offset_max_abs = 0.0;  // > 0: each keyframe's height_offset_m within +- this, m
+  double* gravity = nullptr;           // WindowMap::gravity (restored with the rest on failure)
 };
 
 struct SolveSummary {

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include "common/config.hpp"
+#include "common/error.hpp"
 #include "estimator/kf/estimator.hpp"
 #include "estimator/window/options.hpp"
 
@@ -25,6 +26,24 @@ TEST(EstimatorUsesLidar, FollowsEachEstimatorsOwnSwitch) {
   EXPECT_TRUE(estimatorUsesLidar("window", Config::fromString("kf: {use_lidar: false}")));
   EXPECT_FALSE(estimatorUsesLidar("window", Config::fromString("window: {use_lidar: false}")));
   EXPECT_TRUE(estimatorUsesLidar("kf", Config::fromString("window: {use_lidar: false}")));
+}
+
+// Two models of the camera's height at once (one for the run and one along the path) are refused
+// with both keys named; either alone reads.
+TEST(WindowOptionsRead, RefusesTwoModelsOfTheCameraHeight) {
+  try {
+    readWindowOptions(Config::fromString(
+        "window: {camera_height_path: true, estimate_camera_height: true}"));
+    FAIL() << "expected an error";
+  } catch (const Error& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("window.camera_height_path"), std::string::npos) << what;
+    EXPECT_NE(what.find("window.estimate_camera_height"), std::string::npos) << what;
+  }
+  EXPECT_TRUE(readWindowOptions(Config::fromString("window: {camera_height_path: true}"))
+                  .camera_height_path);
+  EXPECT_TRUE(readWindowOptions(Config::fromString("window: {estimate_camera_height: true}"))
+                  .estimate_camera_height);
 }
 
 // A noise-free simulation writes 0 for its noise figures; the estimators' factors would weigh

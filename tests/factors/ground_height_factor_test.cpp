@@ -57,6 +57,26 @@ TEST(GroundHeightCorrectedFactor, TheCorrectionAddsToTheRigsHeight) {
             0);
 }
 
+// The correction's walk along the path, a Gauss-Markov process in the distance driven (sigma 1
+// cm, correlation length 3 m): far apart the two are independent (the later one's residual is its
+// own value in sigmas); a short step lets it change by sigma sqrt(2 d / L); standing still ties
+// them, so a parked robot's correction cannot wander.
+TEST(CameraHeightWalkFactor, WandersWithTheDistanceDrivenNotTheTime) {
+  const double sigma = 0.01, length = 3.0;
+  const CameraHeightWalkFactor far(1000.0, sigma, length);
+  EXPECT_NEAR(testing::evaluate(far, {{0.02}, {0.005}})[0], 0.5, 1e-9);
+  // 0.3 m driven: a change of sigma sqrt(2 * 0.3 / 3) = 4.5 mm is about one sigma (the exact
+  // process: sigma sqrt(1 - exp(-0.2)) = 4.3 mm, the mean pulled towards 0 by exp(-0.1)).
+  const CameraHeightWalkFactor step(0.3, sigma, length);
+  const double a = std::exp(-0.1), s = sigma * std::sqrt(1.0 - a * a);
+  EXPECT_NEAR(testing::evaluate(step, {{0.0}, {s}})[0], 1.0, 1e-9);
+  EXPECT_NEAR(testing::evaluate(step, {{0.01}, {0.01 * a}})[0], 0.0, 1e-12);
+  // Parked (0 m, floored at 0.1 mm): 1 mm of change is more than 10 sigmas.
+  const CameraHeightWalkFactor parked(0.0, sigma, length);
+  EXPECT_GT(std::abs(testing::evaluate(parked, {{0.0}, {0.001}})[0]), 10.0);
+  testing::expectJacobiansMatch(step, {{0.004}, {-0.007}}, {false, false});
+}
+
 TEST(GroundHeightFactor, RejectsABearingAboveTheHorizon) {
   const GroundScene s = groundScene();
   const GroundHeightFactor f(-s.bearing_C, s.up_C, 1.0, 0.02);

@@ -160,6 +160,41 @@ TEST(WindowCore, EstimatesACorrectionOfTheRigsCameraHeight) {
   EXPECT_LT(distanceErr(corrected), distanceErr(held));
 }
 
+// The camera height along the path with a rig whose height is 3 cm short (as above): the
+// keyframes' corrections, their strength estimated from the ground seen (it starts stiff, at 1
+// mm), find the +3 cm once the ground has shown it, and the final distance comes out nearer the
+// truth than with the rig's height held. Measured: the corrections' median +2.7 cm (the last
+// keyframes, whose ground landmarks are not made yet, fall back towards 0 along the path), the
+// distance error 0.22 % against 0.93 % held.
+TEST(WindowCore, TheCameraHeightAlongThePathFindsARigHeightThatIsOff) {
+  SyntheticOptions o;
+  o.duration_s = 14.0;
+  auto seq = makeSyntheticSequence(o);
+  seq.setup.camera_height_m = seq.setup.camera_height_m.value() - 0.03;
+  WindowOptions options;
+  options.camera_height_path = true;
+  WindowCore core(seq.setup, options);
+  test::feedSequence(seq, core, [](std::size_t, const FrameEstimate&) {});
+  const EstimatorStats stats = core.stats();
+  ASSERT_EQ(stats.camera_height_path_m.size(), core.keyframes().size());
+  ASSERT_GT(stats.camera_height_path_m.size(), 20u);
+  // The keyframes after the start (3 keyframes) and before the end (5).
+  std::vector<double> middle(stats.camera_height_path_m.begin() + 3,
+                             stats.camera_height_path_m.end() - 5);
+  std::nth_element(middle.begin(), middle.begin() + middle.size() / 2, middle.end());
+  const double median = middle[middle.size() / 2];
+  const SE3 T_true = truthRel(seq, seq.frames.size() - 1);
+  const auto distanceErr = [&](const Trajectory& traj) {
+    return std::abs(traj.back().T_W_B.translation().norm() / T_true.translation().norm() - 1.0);
+  };
+  const RunResult held = run(seq);
+  RecordProperty("correction_median_cm", std::to_string(100.0 * median));
+  RecordProperty("distance_err_pct", std::to_string(100.0 * distanceErr(core.trajectory())));
+  RecordProperty("distance_err_pct_held", std::to_string(100.0 * distanceErr(held.trajectory)));
+  EXPECT_NEAR(median, 0.03, 0.01);
+  EXPECT_LT(distanceErr(core.trajectory()), 0.5 * distanceErr(held.trajectory));
+}
+
 TEST(WindowCore, HoldsThePoseDuringAStandstill) {
   SyntheticOptions o;
   o.duration_s = 6.0;
@@ -812,8 +847,8 @@ TEST(WindowCore, TheAccelerometerHoldsTheTiltAVisionDriftWouldTake) {
   const auto [last_without, worst_without] = tilt(without);
   const auto [last_with, worst_with] = tilt(with);
   std::printf("tilt error at the end %.3f / %.3f deg, largest %.3f / %.3f deg (without / with)\n",
-              last_without * 180.0 / M_PI, last_with * 180.0 / M_PI,
-              worst_without * 180.0 / M_PI, worst_with * 180.0 / M_PI);
+              last_without * 180.0 / M_PI, last_with * 180.0 / M_PI, worst_without * 180.0 / M_PI,
+              worst_with * 180.0 / M_PI);
   // Measured over the synthetic seeds 3, 4, 5: 1.89-1.99 deg without, 0.96 with (0.49-0.51 of it):
   // the accelerometer halves the tilt; the vision, a thousand sightings a keyframe, still
   // outweighs it where all the canopy drifts alike.

@@ -45,7 +45,8 @@ std::vector<FactorSpec> unfilteredFactors(const WindowCore& core) {
                       nullptr, nullptr, map.gravity);
 }
 
-// Every factor kind (the accelerometer's too), a stop for zero-rate updates and terrain planes: after every
+// Every factor kind (the accelerometer's too), a stop for zero-rate updates, terrain planes and
+// the camera height along the path: after every
 // marginalisation the factors the window would build, even without the ledger's filter, are
 // none of those already in the prior (the policy itself counts each measurement once), and
 // over the run every kind of measurement has gone into the prior.
@@ -58,6 +59,7 @@ TEST(WindowLedger, NoMeasurementIsInThePriorAndInTheWindow) {
   const auto seq = sequence(o);
   WindowOptions options;
   options.terrain_planes = true;
+  options.camera_height_path = true;
   options.vision_rotation_sigma_rad = 1e-3;
   options.accel_sigma_mps2 = 0.01;
   WindowCore core(seq.setup, options);
@@ -81,7 +83,8 @@ TEST(WindowLedger, NoMeasurementIsInThePriorAndInTheWindow) {
   for (const FactorKind kind :
        {FactorKind::kBearing, FactorKind::kGyro, FactorKind::kBiasWalk, FactorKind::kBiasPrior,
         FactorKind::kZeroRate, FactorKind::kPosePrior, FactorKind::kLidar, FactorKind::kGround,
-        FactorKind::kTerrain, FactorKind::kRotationTie, FactorKind::kAccel})
+        FactorKind::kTerrain, FactorKind::kRotationTie, FactorKind::kAccel,
+        FactorKind::kCameraHeightWalk, FactorKind::kCameraHeightPrior})
     EXPECT_GT(core.ledger().recorded(kind, FactorLedger::Fate::kPrior), 0)
         << "no factor of kind " << static_cast<int>(kind) << " went into the prior";
 }
