@@ -36,8 +36,9 @@ bool GroundHeightCorrectedFactor::Evaluate(double const* const* parameters, doub
 CameraHeightWalkFactor::CameraHeightWalkFactor(double distance_m, double sigma_m, double length_m) {
   // A floor of 0.1 mm driven: two keyframes at one place are tied tightly, not infinitely.
   constexpr double kMinDistanceM = 1e-4;
-  a_ = std::exp(-std::max(distance_m, kMinDistanceM) / length_m);
-  inv_sigma_ = 1.0 / (sigma_m * std::sqrt(1.0 - a_ * a_));
+  const double x = std::max(distance_m, kMinDistanceM) / length_m;
+  a_ = std::exp(-x);
+  inv_sigma_ = 1.0 / (sigma_m * std::sqrt(-std::expm1(-2.0 * x)));  // 1 - a^2 without cancellation
 }
 
 bool CameraHeightWalkFactor::Evaluate(double const* const* parameters, double* residuals,

@@ -235,7 +235,11 @@ void WindowCore::resetWindow() {
   if (!map_.empty()) carried_bias_ = {map_.keyframes.back()->t_ns, map_.keyframes.back()->bias()};
   if (options_.refine == RefineMode::kFull) map_.rememberPoints(setup_.T_B_C);
   // Counted before any keyframe moves out: the residuals look up the landmarks' anchors.
-  for (const auto& kf : map_.keyframes) countLidar(*kf, stats_);
+  for (const auto& kf : map_.keyframes) {
+    countLidar(*kf, stats_);
+    if (followsCameraHeight(model_)) stats_.camera_height_path_m.push_back(kf->height_offset_m[0]);
+  }
+  ground_offsets_.clear();  // a new segment measures its own ground
   for (auto& kf : map_.keyframes) {
     frames_.keepPoses(*kf);
     if (options_.refine == RefineMode::kFull) map_.archive.push_back(std::move(kf));
@@ -262,7 +266,8 @@ void WindowCore::refineAll() {
   std::vector<WindowGauge> gauges = segment_gauges_;
   for (WindowGauge& g : gauges)
     if (auto T_W_B = keyframePose(g.kf_id)) g.T_W_B = *T_W_B;
-  // The camera height as corrected online, held.
+  // The camera height as corrected online: the run's correction held; the corrections along the
+  // path estimated again, bounded as online.
   stats_.refine = refineKeyframes(kfs, map_.last_point_W, heightCorrectedModel(), gauges, options_,
                                   label_ground_options_, map_.time_offset_s,
                                   map_.gravity_set ? map_.gravity : nullptr);

@@ -79,7 +79,8 @@ inline bool estimatesCameraHeight(const WindowModel& model) {
 /// The camera height along the path's sigma when estimated (window.camera_height_path_sigma_m 0):
 /// at least this (smooth ground; also before the ground says more), at most this, m; and the
 /// noise of one anchor keyframe's ground offset that its standard error leaves out (its pose, its
-/// plane's tilt: the smooth simulated row shows 4 mm of spread where the ground adds none), m.
+/// plane's tilt: the smooth simulated row shows 4 mm of spread where the ground adds none, which
+/// this covers), m.
 constexpr double kPathHeightSigmaMinM = 0.001;
 constexpr double kPathHeightSigmaMaxM = 0.05;
 constexpr double kPathHeightNoiseFloorM = 0.005;

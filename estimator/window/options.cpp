@@ -161,6 +161,9 @@ WindowOptions readWindowOptions(const Config& c) {
       c.getInRange(p + "camera_height_path_sigma_m", o.camera_height_path_sigma_m, 0.0, 1.0);
   o.camera_height_path_length_m =
       c.getInRange(p + "camera_height_path_length_m", o.camera_height_path_length_m, 0.01, 1e4);
+  if (o.camera_height_path_sigma_m > 0.0 && o.camera_height_path_sigma_m < 1e-4)
+    fail("{}: {}camera_height_path_sigma_m: expected 0 (estimated) or at least 1e-4 m, got {}",
+         c.location(p + "camera_height_path_sigma_m"), p, o.camera_height_path_sigma_m);
   if (o.camera_height_path && o.estimate_camera_height)
     fail(
         "{}: {}camera_height_path and {}estimate_camera_height are two models of the camera's "

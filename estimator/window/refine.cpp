@@ -211,6 +211,7 @@ RefineInfo refineKeyframes(const std::vector<Keyframe*>& keyframes,
     // earliest, made before the estimate settled, is too coarse to estimate the offset from.
     so.time_offset = {time_offset_s ? td : nullptr, options.time_offset_max_s, /*hold=*/true};
     so.gravity = gravity ? g : nullptr;
+    so.height_offset_max_abs = 5.0 * model.camera_height_path_sigma_m;
     const SolveSummary s = solveFactors(std::move(factors), kfs, landmarks, model, so);
     ++info.passes;
     info.iterations += s.iterations;

@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+
 #include "tests/factors/factor_test_util.hpp"
 
 namespace ovo::factors {
@@ -65,8 +67,8 @@ TEST(CameraHeightWalkFactor, WandersWithTheDistanceDrivenNotTheTime) {
   const double sigma = 0.01, length = 3.0;
   const CameraHeightWalkFactor far(1000.0, sigma, length);
   EXPECT_NEAR(testing::evaluate(far, {{0.02}, {0.005}})[0], 0.5, 1e-9);
-  // 0.3 m driven: a change of sigma sqrt(2 * 0.3 / 3) = 4.5 mm is about one sigma (the exact
-  // process: sigma sqrt(1 - exp(-0.2)) = 4.3 mm, the mean pulled towards 0 by exp(-0.1)).
+  // 0.3 m driven: a change of sigma sqrt(2 * 0.3 / 3) = 4.5 mm is about one sigma of the step (the
+  // exact process: sigma sqrt(1 - exp(-0.2)) = 4.3 mm, the mean pulled towards 0 by exp(-0.1)).
   const CameraHeightWalkFactor step(0.3, sigma, length);
   const double a = std::exp(-0.1), s = sigma * std::sqrt(1.0 - a * a);
   EXPECT_NEAR(testing::evaluate(step, {{0.0}, {s}})[0], 1.0, 1e-9);

@@ -46,10 +46,10 @@ std::vector<FactorSpec> unfilteredFactors(const WindowCore& core) {
 }
 
 // Every factor kind (the accelerometer's too), a stop for zero-rate updates, terrain planes and
-// the camera height along the path: after every
-// marginalisation the factors the window would build, even without the ledger's filter, are
-// none of those already in the prior (the policy itself counts each measurement once), and
-// over the run every kind of measurement has gone into the prior.
+// the camera height along the path: after every marginalisation the factors the window would
+// build, even without the ledger's filter, are none of those already in the prior (the policy
+// itself counts each measurement once), and over the run every kind of measurement has gone into
+// the prior.
 TEST(WindowLedger, NoMeasurementIsInThePriorAndInTheWindow) {
   test::SyntheticOptions o;
   o.duration_s = 10.0;
