@@ -423,7 +423,8 @@ std::vector<std::pair<Timestamp, Vec3>> WindowCore::biasHistory() const {
   return bias;
 }
 
-void WindowCore::countLidar(const Keyframe& kf, EstimatorStats& stats) const {
+void WindowCore::countKeyframe(const Keyframe& kf, EstimatorStats& stats) const {
+  if (followsCameraHeight(model_)) stats.camera_height_path_m.push_back(kf.height_offset_m[0]);
   stats.lidar_keyframes += kf.lidar.empty() ? 0 : 1;
   stats.lidar_ranges += static_cast<int>(kf.lidar.size());
   if (kf.lidar.empty() && kf.lidar_rejected.empty()) return;
@@ -459,13 +460,10 @@ void WindowCore::countLidar(const Keyframe& kf, EstimatorStats& stats) const {
 
 EstimatorStats WindowCore::stats() const {
   EstimatorStats s = stats_;  // plus the keyframes still in the window
-  for (const auto& kf : map_.keyframes) countLidar(*kf, s);
+  for (const auto& kf : map_.keyframes) countKeyframe(*kf, s);
   if (estimatesTimeOffset(model_)) s.time_offset_s = map_.time_offset_s[0];
   if (estimatesCameraHeight(model_)) s.camera_height_offset_m = map_.camera_height_offset_m[0];
-  if (followsCameraHeight(model_)) {
-    for (const auto& kf : map_.keyframes) s.camera_height_path_m.push_back(kf->height_offset_m[0]);
-    s.camera_height_path_sigma_m = model_.camera_height_path_sigma_m;
-  }
+  if (followsCameraHeight(model_)) s.camera_height_path_sigma_m = model_.camera_height_path_sigma_m;
   return s;
 }
 

@@ -226,10 +226,10 @@ class WindowCore {
       const std::unordered_map<TrackId, TrackObservation>& obs, const Prediction& pred,
       std::vector<TrackId>* ids, std::size_t* landmarks_seen) const;
   void note(const std::string& text);
-  /// Adds a keyframe's LiDAR associations (as they stand when it leaves the window) to stats:
+  /// Adds a keyframe (as it stands when it leaves the window) to stats: its LiDAR associations,
   /// their number and their residuals against the landmarks' points now (call while the
-  /// landmarks' anchors are still in the map).
-  void countLidar(const Keyframe& kf, EstimatorStats& stats) const;
+  /// landmarks' anchors are still in the map), and its camera-height correction along the path.
+  void countKeyframe(const Keyframe& kf, EstimatorStats& stats) const;
   void recordFrame(const FrameEstimate& e, int ref_kf);
   /// A frame placed after keyframe kf: its orientation is kf's (the gyro chain's) turned by the
   /// gyro since, at kf's bias (frame_rotation_from_gyro); kept for the output to re-evaluate at

@@ -179,9 +179,7 @@ void WindowCore::marginalize() {
     // The landmarks' last points seed the full refinement (kept only for it: they grow).
     if (options_.refine == RefineMode::kFull) map_.rememberPoints(setup_.T_B_C);
     frames_.keepPoses(*oldest);
-    countLidar(*oldest, stats_);
-    if (followsCameraHeight(model_))
-      stats_.camera_height_path_m.push_back(oldest->height_offset_m[0]);
+    countKeyframe(*oldest, stats_);
     const int oldest_id = oldest->id;
     if (options_.refine == RefineMode::kFull)
       map_.archive.push_back(std::move(map_.keyframes.front()));
@@ -235,10 +233,7 @@ void WindowCore::resetWindow() {
   if (!map_.empty()) carried_bias_ = {map_.keyframes.back()->t_ns, map_.keyframes.back()->bias()};
   if (options_.refine == RefineMode::kFull) map_.rememberPoints(setup_.T_B_C);
   // Counted before any keyframe moves out: the residuals look up the landmarks' anchors.
-  for (const auto& kf : map_.keyframes) {
-    countLidar(*kf, stats_);
-    if (followsCameraHeight(model_)) stats_.camera_height_path_m.push_back(kf->height_offset_m[0]);
-  }
+  for (const auto& kf : map_.keyframes) countKeyframe(*kf, stats_);
   ground_offsets_.clear();  // a new segment measures its own ground
   for (auto& kf : map_.keyframes) {
     frames_.keepPoses(*kf);

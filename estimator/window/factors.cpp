@@ -39,6 +39,14 @@ using Keyframes = std::vector<Keyframe*>;
 using Landmarks = std::unordered_map<TrackId, Landmark>;
 using KeyframesById = std::unordered_map<int, Keyframe*>;
 
+// Whether the marginalisation prior holds a block (a state of a keyframe that left the window
+// acts on it through the prior).
+bool inPrior(const WindowGauge& gauge, const double* block) {
+  if (!gauge.marginalization) return false;
+  const auto& kept = gauge.marginalization->keptBlocks();
+  return std::find(kept.begin(), kept.end(), block) != kept.end();
+}
+
 // Whether a landmark's factors are left out: when `seen_by` is given, only those of the landmarks
 // it sees or anchors are built.
 bool leftOut(const Keyframe* seen_by, TrackId id, const Landmark& lm) {
@@ -179,8 +187,6 @@ bool addGroundFactors(const KeyframesById& kf_of, Landmarks& landmarks, const Wi
 void addCameraHeightPathFactors(const Keyframes& keyframes, const WindowModel& model,
                                 const WindowGauge& gauge, std::vector<FactorSpec>& out) {
   if (!followsCameraHeight(model)) return;
-  const auto& kept =
-      gauge.marginalization ? gauge.marginalization->keptBlocks() : std::vector<double*>{};
   for (std::size_t k = 0; k < keyframes.size(); ++k) {
     Keyframe* j = keyframes[k];
     Keyframe* i = k > 0 && keyframes[k - 1]->segment == j->segment ? keyframes[k - 1] : nullptr;
@@ -192,7 +198,7 @@ void addCameraHeightPathFactors(const Keyframes& keyframes, const WindowModel& m
           (j->pose().translation() - i->pose().translation()).norm(),
           model.camera_height_path_sigma_m, model.camera_height_path_length_m);
       f.blocks = {i->height_offset_m, j->height_offset_m};
-    } else if (std::find(kept.begin(), kept.end(), j->height_offset_m) == kept.end()) {
+    } else if (!inPrior(gauge, j->height_offset_m)) {
       f.kind = FactorKind::kCameraHeightPrior;
       f.cost = std::make_unique<factors::ScalarPriorFactor>(0.0, model.camera_height_path_sigma_m);
       f.blocks = {j->height_offset_m};
@@ -392,11 +398,7 @@ std::vector<FactorSpec> buildFactors(const std::vector<Keyframe*>& keyframes,
   // factor of it, or the marginalisation prior): a plausibility bound that holds the time offset
   // while the motion does not show it (a constant rate), and the camera height while the LiDAR
   // sees little. They touch no keyframe: never marginalised.
-  const auto held = [&](double* block, bool used) {
-    const auto& kept =
-        gauge.marginalization ? gauge.marginalization->keptBlocks() : std::vector<double*>{};
-    return used || std::find(kept.begin(), kept.end(), block) != kept.end();
-  };
+  const auto held = [&](double* block, bool used) { return used || inPrior(gauge, block); };
   const auto scalarPrior = [&](double* block, bool used, FactorKind kind, double sigma) {
     if (!held(block, used)) return;
     FactorSpec p;

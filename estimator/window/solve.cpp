@@ -9,6 +9,7 @@
 #include <cmath>
 #include <limits>
 #include <unordered_set>
+#include <vector>
 
 #include "estimator/window/landmark_schur.hpp"
 #include "factors/accel_factor.hpp"
@@ -32,8 +33,9 @@ void addFactorsToProblem(std::vector<FactorSpec>& factors, const std::vector<Key
 
 namespace {
 
-// The scalar states of the run that the factors may hold.
-using Scalars = std::array<ScalarState, 2>;
+// The scalar states that the factors may hold: the run's (time offset, camera height) and each
+// keyframe's camera-height correction along the path, bounded or held and restored alike.
+using Scalars = std::vector<ScalarState>;
 
 ceres::Solver::Summary solveWithCeres(std::vector<FactorSpec>& factors,
                                       const std::vector<Keyframe*>& keyframes,
@@ -50,12 +52,6 @@ ceres::Solver::Summary solveWithCeres(std::vector<FactorSpec>& factors,
     problem.SetParameterUpperBound(lm.rho, 0, model.max_rho);
     lm.rho[0] = std::clamp(lm.rho[0], model.min_rho, model.max_rho);
   }
-  if (options.height_offset_max_abs > 0.0)
-    for (Keyframe* kf : keyframes) {
-      if (!problem.HasParameterBlock(kf->height_offset_m)) continue;
-      problem.SetParameterLowerBound(kf->height_offset_m, 0, -options.height_offset_max_abs);
-      problem.SetParameterUpperBound(kf->height_offset_m, 0, options.height_offset_max_abs);
-    }
   for (const ScalarState& x : scalars) {
     if (!x.block || !problem.HasParameterBlock(x.block)) continue;
     if (x.hold) {
@@ -92,11 +88,6 @@ LmSummary solveOwn(std::vector<FactorSpec>& factors, const std::vector<Keyframe*
   for (const Keyframe* kf : keyframes) {
     info[kf->q_W_B].quaternion = true;
     if (tiedRotations(model)) info[kf->q_W_G].quaternion = true;
-    if (options.height_offset_max_abs > 0.0) {
-      LmBlockInfo& b = info[kf->height_offset_m];
-      b.lower = -options.height_offset_max_abs;
-      b.upper = options.height_offset_max_abs;
-    }
   }
   for (const auto& [id, lm] : landmarks) {
     LmBlockInfo& b = info[lm.rho];
@@ -128,7 +119,7 @@ SolveSummary solveFactors(std::vector<FactorSpec> factors, const std::vector<Key
 
   // Backup for a diverged solve.
   struct KfBackup {
-    double q[4], g[4], p[3], b[3], terrain[3], height;
+    double q[4], g[4], p[3], b[3], terrain[3];
   };
   std::vector<KfBackup> kf_backup(keyframes.size());
   for (std::size_t k = 0; k < keyframes.size(); ++k) {
@@ -137,12 +128,14 @@ SolveSummary solveFactors(std::vector<FactorSpec> factors, const std::vector<Key
     std::copy_n(keyframes[k]->p_W_B, 3, kf_backup[k].p);
     std::copy_n(keyframes[k]->b_g, 3, kf_backup[k].b);
     std::copy_n(keyframes[k]->terrain, 3, kf_backup[k].terrain);
-    kf_backup[k].height = keyframes[k]->height_offset_m[0];
   }
   std::unordered_map<TrackId, double> rho_backup;
   for (const auto& [id, lm] : landmarks) rho_backup[id] = lm.rho[0];
-  const std::array<ScalarState, 2> scalars = {options.time_offset, options.camera_height_offset};
-  std::array<double, 2> scalar_backup{};
+  Scalars scalars = {options.time_offset, options.camera_height_offset};
+  if (options.height_offset_max_abs > 0.0)
+    for (Keyframe* kf : keyframes)
+      scalars.push_back({kf->height_offset_m, options.height_offset_max_abs});
+  std::vector<double> scalar_backup(scalars.size(), 0.0);
   for (std::size_t i = 0; i < scalars.size(); ++i)
     if (scalars[i].block) scalar_backup[i] = scalars[i].block[0];
 
@@ -159,8 +152,8 @@ SolveSummary solveFactors(std::vector<FactorSpec> factors, const std::vector<Key
     summary.message = s.message;
     solver_failed = s.failed;
   } else {
-    const ceres::Solver::Summary s =
-        solveWithCeres(factors, keyframes, landmarks, model, scalars, options);
+    const ceres::Solver::Summary s = solveWithCeres(factors, keyframes, landmarks, model, scalars,
+                                                    options);
     summary.iterations = static_cast<int>(s.iterations.size());
     summary.initial_cost = s.initial_cost;
     summary.final_cost = s.final_cost;
@@ -169,11 +162,11 @@ SolveSummary solveFactors(std::vector<FactorSpec> factors, const std::vector<Key
   }
   bool finite = !solver_failed;
   for (const Keyframe* kf : keyframes)
-    finite = finite && std::isfinite(kf->q_W_B[0] + kf->q_W_B[1] + kf->q_W_B[2] + kf->q_W_B[3] +
-                                     kf->p_W_B[0] + kf->p_W_B[1] + kf->p_W_B[2] + kf->b_g[0] +
-                                     kf->b_g[1] + kf->b_g[2] + kf->terrain[0] + kf->terrain[1] +
-                                     kf->terrain[2] + kf->q_W_G[0] + kf->q_W_G[1] + kf->q_W_G[2] +
-                                     kf->q_W_G[3] + kf->height_offset_m[0]);
+    finite = finite &&
+             std::isfinite(kf->q_W_B[0] + kf->q_W_B[1] + kf->q_W_B[2] + kf->q_W_B[3] +
+                           kf->p_W_B[0] + kf->p_W_B[1] + kf->p_W_B[2] + kf->b_g[0] + kf->b_g[1] +
+                           kf->b_g[2] + kf->terrain[0] + kf->terrain[1] + kf->terrain[2] +
+                           kf->q_W_G[0] + kf->q_W_G[1] + kf->q_W_G[2] + kf->q_W_G[3]);
   for (const auto& [id, lm] : landmarks) finite = finite && std::isfinite(lm.rho[0]);
   for (const ScalarState& x : scalars) finite = finite && (!x.block || std::isfinite(x.block[0]));
   if (options.gravity)
@@ -190,7 +183,6 @@ SolveSummary solveFactors(std::vector<FactorSpec> factors, const std::vector<Key
       std::copy_n(kf_backup[k].p, 3, keyframes[k]->p_W_B);
       std::copy_n(kf_backup[k].b, 3, keyframes[k]->b_g);
       std::copy_n(kf_backup[k].terrain, 3, keyframes[k]->terrain);
-      keyframes[k]->height_offset_m[0] = kf_backup[k].height;
     }
     for (auto& [id, lm] : landmarks) lm.rho[0] = rho_backup[id];
     return summary;

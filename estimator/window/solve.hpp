@@ -3,21 +3,21 @@
 // when the solve fails or diverges.
 #pragma once
 
-#include <ceres/problem.h>
-
 #include <string>
 #include <unordered_map>
 #include <unordered_set>
 #include <vector>
+
+#include <ceres/problem.h>
 
 #include "estimator/window/factors.hpp"
 #include "estimator/window/options.hpp"
 
 namespace ovo::estimator {
 
-/// One scalar state of the whole run (WindowMap::time_offset_s, camera_height_offset_m) when the
-/// factors hold it: bounded to +- max_abs, or held at its value, and restored with the rest on
-/// failure.
+/// One scalar state (WindowMap::time_offset_s, camera_height_offset_m, a keyframe's
+/// height_offset_m) when the factors hold it: bounded to +- max_abs, or held at its value, and
+/// restored with the rest on failure.
 struct ScalarState {
   double* block = nullptr;
   double max_abs = 0.1;
@@ -28,12 +28,12 @@ struct SolveOptions {
   LinearSolver linear_solver = LinearSolver::kLandmarkSchur;
   int max_iterations = 8;
   double stop_decrease = 0.0;  // landmark_schur's (LmOptions::stop_decrease)
-  double max_time_s = 0.0;     // 0: unlimited
+  double max_time_s = 0.0;  // 0: unlimited
   int num_threads = 1;
-  ScalarState time_offset;             // s
-  ScalarState camera_height_offset;    // m
+  ScalarState time_offset;           // s
+  ScalarState camera_height_offset;  // m
   double height_offset_max_abs = 0.0;  // > 0: each keyframe's height_offset_m within +- this, m
-  double* gravity = nullptr;           // WindowMap::gravity (restored with the rest on failure)
+  double* gravity = nullptr;  // WindowMap::gravity (restored with the rest on failure)
 };
 
 struct SolveSummary {
