@@ -350,9 +350,13 @@ class KfEstimator final : public Estimator {
       for (const auto& obs : s.track_history[i]) {
         const auto T_W_Bold = basePoseAt(obs.t_ns);
         if (!T_W_Bold) continue;
-        const SE3 T_Cold_Ccur = (*T_W_Bold * setup_.T_B_C).inverse() * T_W_Ccur;
+        const SE3 T_W_Cold = *T_W_Bold * setup_.T_B_C;
+        const SE3 T_Cold_Ccur = T_W_Cold.inverse() * T_W_Ccur;
+        // The turn about the world's up (the rotation vector in W): a robot turning on the spot
+        // turns about it; one pitching and rolling over rough ground does not.
+        const double turn_rad = std::abs((T_W_Cold.linear() * so3::log(T_Cold_Ccur.linear())).z());
         if (T_Cold_Ccur.translation().norm() >= options_.lidar_min_baseline_m &&
-            so3::angle(T_Cold_Ccur.linear()) <= max_rotation_rad)
+            turn_rad <= max_rotation_rad)
           features.push_back({s.px_all_cur[i], s.bearings_cur[i], obs.bearing_C,
                               T_Cold_Ccur.linear(), T_Cold_Ccur.translation()});
         break;

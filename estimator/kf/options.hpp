@@ -20,8 +20,10 @@ struct KfEstimatorOptions {
   double scan_time_tolerance_s = 0.01;  // a scan belongs to a frame within this time, s
   double lidar_baseline_s = 0.6;        // tracks are checked against the LiDAR over this span, s
   double lidar_min_baseline_m = 0.1;    // shorter spans (turning in place, stops) are skipped, m
-  double lidar_max_rotation_deg = 5.0;  // ... and spans that turn more (their translation is the
-                                        // chain's weakest, and the scale follows it), deg
+  double lidar_max_rotation_deg = 5.0;  // ... and spans that turn more about the world's up
+                                        // (their translation is the chain's weakest, and the
+                                        // scale follows it; pitch and roll over bumps count not),
+                                        // deg
   double scale_sigma0 = 0.3;            // prior on log(LiDAR/ground-plane scale) (camera height), 1
   double scale_walk = 0.002;            // its random walk, 1/sqrt(s)
   double scale_noise_floor = 0.05;      // smallest noise of one LiDAR measurement of it, 1
