@@ -2,7 +2,9 @@
 #include "estimator/common/lidar_ground.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <limits>
 #include <utility>
 
 namespace ovo::estimator {
@@ -18,10 +20,10 @@ std::pair<std::size_t, std::size_t> densestRun(const std::vector<double>& sorted
   return {best_lo, best_n};
 }
 
-}  // namespace
-
-std::optional<double> bodyHeightFromScan(const LidarScan& scan, const SE3& T_B_L,
-                                         const LidarGroundOptions& options) {
+// The body heights z of the scan's end points min_drop_m or more below the LiDAR, sorted, and the
+// number of valid beams.
+std::pair<std::vector<double>, int> lowEndPoints(const LidarScan& scan, const SE3& T_B_L,
+                                                 double min_drop_m) {
   const double z_lidar = T_B_L.translation().z();
   std::vector<double> low;
   int valid = 0;
@@ -29,21 +31,132 @@ std::optional<double> bodyHeightFromScan(const LidarScan& scan, const SE3& T_B_L
     if (!scan.valid(i)) continue;
     ++valid;
     const double z = (T_B_L * scan.point_L(i)).z();
-    if (std::isfinite(z) && z <= z_lidar - options.min_drop_m) low.push_back(z);
+    if (std::isfinite(z) && z <= z_lidar - min_drop_m) low.push_back(z);
   }
-  if (low.empty()) return std::nullopt;
   std::sort(low.begin(), low.end());
-  // The densest band: the most end points within band_m of each other.
-  const auto [best_lo, best_n] = densestRun(low, options.band_m);
+  return {std::move(low), valid};
+}
+
+// The ground's band among the sorted low end points: the median height of the densest run within
+// `width`, nullopt when the run has too few points or too many lie more than `width` below it.
+std::optional<double> groundBand(const std::vector<double>& low, int valid, double width,
+                                 const LidarGroundOptions& options) {
+  if (low.empty()) return std::nullopt;
+  const auto [best_lo, best_n] = densestRun(low, width);
   if (static_cast<int>(best_n) < options.min_points ||
       static_cast<double>(best_n) < options.min_fraction * valid)
     return std::nullopt;
   // Nothing is seen below the ground: a band with end points further down is a wall's (the
   // height of a pitched scan's hits on a wall changes slowest where they are least below it).
-  const auto below = std::lower_bound(low.begin(), low.end(), low[best_lo] - options.band_m);
+  const auto below = std::lower_bound(low.begin(), low.end(), low[best_lo] - width);
   if (static_cast<double>(below - low.begin()) > options.max_below_fraction * best_n)
     return std::nullopt;
-  return -low[best_lo + best_n / 2];
+  return low[best_lo + best_n / 2];
+}
+
+}  // namespace
+
+std::optional<double> bodyHeightFromScan(const LidarScan& scan, const SE3& T_B_L,
+                                         const LidarGroundOptions& options) {
+  const auto [low, valid] = lowEndPoints(scan, T_B_L, options.min_drop_m);
+  // The densest band: the most end points within band_m of each other.
+  const auto z = groundBand(low, valid, options.band_m, options);
+  if (!z) return std::nullopt;
+  return -*z;
+}
+
+std::optional<GroundRoughness> groundRoughnessFromScan(const LidarScan& scan, const SE3& T_B_L,
+                                                       double range_sigma_m,
+                                                       const LidarGroundOptions& options) {
+  // The ground found as bodyHeightFromScan finds it, in a band as wide as the gate (rough ground
+  // spreads its end points over more than band_m).
+  // A body rolled over rough ground puts one side of the line lower than the band: what lies below
+  // the ground is checked against the fitted line instead (below).
+  const auto [low_z, valid] = lowEndPoints(scan, T_B_L, options.min_drop_m);
+  LidarGroundOptions seed = options;
+  seed.max_below_fraction = std::numeric_limits<double>::infinity();
+  const auto band = groundBand(low_z, valid, options.roughness_gate_m, seed);
+  if (!band) return std::nullopt;
+  const double z_lidar = T_B_L.translation().z();
+  struct Point {
+    double x, y, z, up;  // up: the beam's |up component| in the body
+  };
+  std::vector<Point> low;
+  for (std::size_t i = 0; i < scan.ranges_m.size(); ++i) {
+    if (!scan.valid(i)) continue;
+    const Vec3 p = T_B_L * scan.point_L(i);
+    if (!p.allFinite() || p.z() > z_lidar - options.min_drop_m) continue;
+    low.push_back(
+        {p.x(), p.y(), p.z(), std::abs((T_B_L.linear() * scan.point_L(i).normalized()).z())});
+  }
+  // z = a + b y by least squares over the end points within the gate, from the band's height;
+  // the gate then narrows to 4 robust spreads (at least 2 cm) and the line is fitted again.
+  double a = *band, b = 0.0, gate = options.roughness_gate_m;
+  GroundRoughness out;
+  std::vector<double> residuals, up_shares;
+  std::vector<const Point*> kept;  // the points about the line
+  for (int iteration = 0; iteration < 4; ++iteration) {
+    double n = 0, sy = 0, sz = 0, syy = 0, syz = 0;
+    for (const Point& p : low) {
+      if (std::abs(p.z - a - b * p.y) > gate) continue;
+      n += 1, sy += p.y, sz += p.z, syy += p.y * p.y, syz += p.y * p.z;
+    }
+    if (n < options.min_points) return std::nullopt;
+    const double det = n * syy - sy * sy;
+    if (!(det > 1e-9 * n * n)) return std::nullopt;  // all at one y: no line across the scan
+    b = (n * syz - sy * sz) / det;
+    a = (sz - b * sy) / n;
+    residuals.clear();
+    up_shares.clear();
+    kept.clear();
+    for (const Point& p : low)
+      if (const double r = std::abs(p.z - a - b * p.y); r <= gate) {
+        residuals.push_back(r);
+        up_shares.push_back(p.up);
+        kept.push_back(&p);
+      }
+    out.points = static_cast<int>(residuals.size());
+    if (out.points < options.min_points) return std::nullopt;
+    std::nth_element(residuals.begin(), residuals.begin() + residuals.size() / 2, residuals.end());
+    out.spread_m = 1.4826 * residuals[residuals.size() / 2];
+    gate = std::clamp(4.0 * out.spread_m, 0.02, options.roughness_gate_m);
+  }
+  // The ground's hits lie all across the body, one beyond the other; a wall's (a slab beside the
+  // robot, a post) at one side: of 8 equal parts of the hits' lateral extent, 6 must hold hits.
+  {
+    constexpr int kParts = 8, kPartsHeld = 6;
+    double y_min = kept.front()->y, y_max = y_min;
+    for (const Point* p : kept) y_min = std::min(y_min, p->y), y_max = std::max(y_max, p->y);
+    std::array<bool, kParts> held{};
+    for (const Point* p : kept) {
+      const int part = static_cast<int>(kParts * (p->y - y_min) / std::max(y_max - y_min, 1e-9));
+      held[std::clamp(part, 0, kParts - 1)] = true;
+    }
+    if (std::count(held.begin(), held.end(), true) < kPartsHeld) return std::nullopt;
+  }
+  // Nothing is seen below the ground: a line with end points well below it is a wall's.
+  const auto below = std::count_if(low.begin(), low.end(), [&](const Point& p) {
+    return p.z < a + b * p.y - options.roughness_gate_m;
+  });
+  if (static_cast<double>(below) > options.max_below_fraction * out.points) return std::nullopt;
+  std::nth_element(up_shares.begin(), up_shares.begin() + up_shares.size() / 2, up_shares.end());
+  out.noise_m = range_sigma_m * up_shares[up_shares.size() / 2];
+  return out;
+}
+
+std::optional<double> terrainRoughness(const std::deque<GroundRoughness>& scans, int min_scans) {
+  if (scans.empty() || static_cast<int>(scans.size()) < min_scans) return std::nullopt;
+  std::vector<double> spreads, noises;
+  for (const GroundRoughness& r : scans) {
+    spreads.push_back(r.spread_m);
+    noises.push_back(r.noise_m);
+  }
+  const auto median = [](std::vector<double>& v) {
+    std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+    return v[v.size() / 2];
+  };
+  const double spread = median(spreads), noise = median(noises);
+  return std::sqrt(std::max(0.0, spread * spread - noise * noise));
 }
 
 std::optional<LidarCameraHeight> cameraHeightFromLidar(const std::vector<LidarScan>& scans,

@@ -6,6 +6,7 @@
 // the body.
 #pragma once
 
+#include <deque>
 #include <optional>
 #include <vector>
 
@@ -25,6 +26,8 @@ struct LidarGroundOptions {
   int min_scans = 5;                // scans that agree needed for an answer ...
   double min_agreeing = 0.2;        // ... and this fraction of the scans with a band
   double agreement_m = 0.02;        // scans agree when their heights are within this of each other
+  double roughness_gate_m = 0.15;   // groundRoughnessFromScan: end points this far from the band
+                                    // start the line's fit; the gate then narrows to 4 spreads
 };
 
 /// The body's height above the ground in one scan (T_B_L: LiDAR to body): minus the median body
@@ -32,6 +35,31 @@ struct LidarGroundOptions {
 /// the band has too few points or too many lie below it.
 std::optional<double> bodyHeightFromScan(const LidarScan& scan, const SE3& T_B_L,
                                          const LidarGroundOptions& options = {});
+
+/// The ground's roughness across one scan: a pitched planar scan meets flat ground along a
+/// straight line (across the body, a few metres ahead), so the spread of its ground end points'
+/// body heights about the line z = a + b y fitted through them (b: the body's roll over the
+/// ground) is the terrain's height spread there plus the range noise's share. Both are metric and
+/// independent of any visual scale.
+struct GroundRoughness {
+  double spread_m = 0.0;  // robust standard deviation (1.4826 MAD) of the heights about the line
+  double noise_m = 0.0;   // the range noise's share of it: range sigma times the median of the
+                          // beams' |up component| (a beam that meets the ground at a grazing
+                          // angle moves its end point little in height)
+  int points = 0;         // ground end points about the line
+};
+
+/// The ground's roughness in one scan (nullopt without a ground band, as bodyHeightFromScan, or
+/// with fewer than options.min_points end points about the line). range_sigma_m: the LiDAR's range
+/// noise (rig.yaml's lidar.range_sigma_m).
+std::optional<GroundRoughness> groundRoughnessFromScan(const LidarScan& scan, const SE3& T_B_L,
+                                                       double range_sigma_m,
+                                                       const LidarGroundOptions& options = {});
+
+/// The terrain's height standard deviation from recent scans' roughness: the median spread less
+/// the median range-noise share, in quadrature (0 where the noise explains it all); nullopt with
+/// fewer than min_scans.
+std::optional<double> terrainRoughness(const std::deque<GroundRoughness>& scans, int min_scans);
 
 struct LidarCameraHeight {
   double camera_height_m = 0.0;  // the body's height plus the camera's height in the body

@@ -94,7 +94,15 @@ void WindowCore::addScan(const LidarScan& scan) {
   // The scans go onto the images' timeline (their stamps are on the gyro clock, the images' run
   // ahead by the time offset) by the newest estimate of the offset (solveWindow moves them on).
   scans_.setShift(gyroShift());
-  scans_.add(deskewed(scan), keep_from);
+  LidarScan made = deskewed(scan);
+  if (followsCameraHeight(model_) && !(options_.camera_height_path_sigma_m > 0.0)) {
+    // The terrain's roughness over the last 10 s of a 10 Hz LiDAR (labelGround's sigma).
+    constexpr std::size_t kRecentScans = 100;
+    if (const auto r = groundRoughnessFromScan(made, setup_.T_B_L, setup_.lidar_range_sigma_m))
+      ground_roughness_.push_back(*r);
+    while (ground_roughness_.size() > kRecentScans) ground_roughness_.pop_front();
+  }
+  scans_.add(std::move(made), keep_from);
 }
 
 LidarScan WindowCore::deskewed(const LidarScan& scan) const {

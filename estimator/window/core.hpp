@@ -13,6 +13,7 @@
 // refinement (refine).
 #pragma once
 
+#include <deque>
 #include <map>
 #include <memory>
 #include <optional>
@@ -22,6 +23,7 @@
 
 #include "estimator/common/ground_plane.hpp"
 #include "estimator/common/gyro_front.hpp"
+#include "estimator/common/lidar_ground.hpp"
 #include "estimator/common/lidar_scale.hpp"
 #include "estimator/common/two_view.hpp"
 #include "estimator/estimator.hpp"
@@ -277,8 +279,9 @@ class WindowCore {
   std::optional<double> searched_ratio_;
   bool scale_known_ = true;  // false: the segment started at a unit baseline (rescaleToGround)
   std::vector<double> ground_heights_;  // the last labelGround's plane heights (rescaleToGround)
-  // The recent anchors' ground offsets (the camera height along the path's estimated sigma).
-  std::map<int, AnchorGroundOffset> ground_offsets_;
+  // The ground's roughness in the recent scans (the camera height along the path's estimated
+  // sigma), the newest last.
+  std::deque<GroundRoughness> ground_roughness_;
 
   // Last frame.
   bool have_last_ = false;

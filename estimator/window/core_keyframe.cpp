@@ -148,16 +148,13 @@ void WindowCore::labelGround() {
   ground_heights_ =
       labelGroundLandmarks(map_.landmarks, heightCorrectedModel(), options_, label_ground_options_);
   if (followsCameraHeight(model_) && !(options_.camera_height_path_sigma_m > 0.0)) {
-    // The correction's strength from the ground the window sees: the anchors of the last
-    // keyframes (about 10 m at the simulated rows' spacing), each with enough ground points.
-    constexpr int kMinPoints = 5, kRecentAnchors = 30, kMinAnchors = 5;
-    for (const auto& [kf_id, o] : anchorGroundOffsets(map_.landmarks, model_, kMinPoints))
-      ground_offsets_[kf_id] = o;
-    while (static_cast<int>(ground_offsets_.size()) > kRecentAnchors)
-      ground_offsets_.erase(ground_offsets_.begin());
-    model_.camera_height_path_sigma_m =
-        pathHeightSigma(ground_offsets_, kMinAnchors, kPathHeightNoiseFloorM, kPathHeightSigmaMinM,
-                        kPathHeightSigmaMaxM);
+    // The correction's strength is the terrain's roughness, which the LiDAR's ground beams measure
+    // in metres whatever the window's scale (the ground's own offsets, at the window's scale,
+    // read a scale error as terrain).
+    constexpr int kMinScans = 10;
+    if (const auto terrain = terrainRoughness(ground_roughness_, kMinScans))
+      model_.camera_height_path_sigma_m =
+          std::clamp(*terrain, kPathHeightSigmaMinM, kPathHeightSigmaMaxM);
   }
 }
 
@@ -234,7 +231,6 @@ void WindowCore::resetWindow() {
   if (options_.refine == RefineMode::kFull) map_.rememberPoints(setup_.T_B_C);
   // Counted before any keyframe moves out: the residuals look up the landmarks' anchors.
   for (const auto& kf : map_.keyframes) countKeyframe(*kf, stats_);
-  ground_offsets_.clear();  // a new segment measures its own ground
   for (auto& kf : map_.keyframes) {
     frames_.keepPoses(*kf);
     if (options_.refine == RefineMode::kFull) map_.archive.push_back(std::move(kf));

@@ -25,40 +25,6 @@ std::optional<double> agreedGroundHeight(std::vector<double> heights, int min_ke
   return median;
 }
 
-std::map<int, AnchorGroundOffset> anchorGroundOffsets(
-    const std::unordered_map<TrackId, Landmark>& landmarks, const WindowModel& model,
-    int min_points) {
-  std::map<int, std::vector<double>> by_anchor;
-  for (const auto& [id, lm] : landmarks) {
-    if (!lm.on_ground || !(lm.rho[0] > 1e-6)) continue;
-    by_anchor[lm.anchor_kf].push_back(-lm.ground_up_C.dot(lm.bearing_anchor_C) / lm.rho[0] -
-                                      model.camera_height_m);
-  }
-  std::map<int, AnchorGroundOffset> out;
-  for (const auto& [kf_id, d] : by_anchor) {
-    const int n = static_cast<int>(d.size());
-    if (n < std::max(2, min_points)) continue;
-    double mean = 0.0, var = 0.0;
-    for (const double x : d) mean += x / n;
-    for (const double x : d) var += (x - mean) * (x - mean) / (n - 1);
-    out[kf_id] = {mean, std::sqrt(var / n), n};
-  }
-  return out;
-}
-
-double pathHeightSigma(const std::map<int, AnchorGroundOffset>& offsets, int min_anchors,
-                       double noise_floor_m, double min_m, double max_m) {
-  const int n = static_cast<int>(offsets.size());
-  if (n < std::max(1, min_anchors)) return min_m;
-  double square = 0.0, se_square = 0.0;
-  for (const auto& [kf_id, o] : offsets) {
-    square += o.mean_m * o.mean_m / n;
-    se_square += o.se_m * o.se_m / n;
-  }
-  const double ground = square - se_square - noise_floor_m * noise_floor_m;
-  return std::clamp(std::sqrt(std::max(0.0, ground)), min_m, max_m);
-}
-
 std::vector<double> labelGroundLandmarks(std::unordered_map<TrackId, Landmark>& landmarks,
                                          const WindowModel& model, const WindowOptions& options,
                                          const GroundPlaneOptions& ground_options) {

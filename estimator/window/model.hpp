@@ -76,14 +76,12 @@ inline bool estimatesCameraHeight(const WindowModel& model) {
   return model.camera_height_m > 0.0 && model.camera_height_offset_sigma_m > 0.0;
 }
 
-/// The camera height along the path's sigma when estimated (window.camera_height_path_sigma_m 0):
-/// at least this (smooth ground; also before the ground says more), at most this, m; and the
-/// noise of one anchor keyframe's ground offset that its standard error leaves out (its pose, its
-/// plane's tilt: the smooth simulated row shows 4 mm of spread where the ground adds none, which
-/// this covers), m.
-constexpr double kPathHeightSigmaMinM = 0.001;
+/// The camera height along the path's sigma when estimated (window.camera_height_path_sigma_m 0,
+/// the terrain's roughness from the LiDAR's ground beams): at least this (smooth ground, where the
+/// corrections are then held to a fraction of a millimetre; also before the LiDAR says more), at
+/// most this, m.
+constexpr double kPathHeightSigmaMinM = 1e-4;
 constexpr double kPathHeightSigmaMaxM = 0.05;
-constexpr double kPathHeightNoiseFloorM = 0.005;
 
 /// True when each keyframe carries a correction of the camera height (Keyframe::height_offset_m).
 inline bool followsCameraHeight(const WindowModel& model) {
