@@ -86,8 +86,9 @@ std::optional<GroundRoughness> groundRoughnessFromScan(const LidarScan& scan, co
     if (!scan.valid(i)) continue;
     const Vec3 p = T_B_L * scan.point_L(i);
     if (!p.allFinite() || p.z() > z_lidar - options.min_drop_m) continue;
-    low.push_back(
-        {p.x(), p.y(), p.z(), std::abs((T_B_L.linear() * scan.point_L(i).normalized()).z())});
+    const double angle = scan.angle(i);
+    const Vec3 beam_B = T_B_L.linear() * Vec3(std::cos(angle), std::sin(angle), 0.0);
+    low.push_back({p.x(), p.y(), p.z(), std::abs(beam_B.z())});
   }
   // z = a + b y by least squares over the end points within the gate, from the band's height;
   // the gate then narrows to 4 robust spreads (at least 2 cm) and the line is fitted again.
@@ -119,11 +120,17 @@ std::optional<GroundRoughness> groundRoughnessFromScan(const LidarScan& scan, co
     if (out.points < options.min_points) return std::nullopt;
     std::nth_element(residuals.begin(), residuals.begin() + residuals.size() / 2, residuals.end());
     out.spread_m = 1.4826 * residuals[residuals.size() / 2];
-    gate = std::clamp(4.0 * out.spread_m, 0.02, options.roughness_gate_m);
+    gate = std::min(std::max(4.0 * out.spread_m, 0.02), options.roughness_gate_m);
   }
-  // The ground's hits lie all across the body, one beyond the other; a wall's (a slab beside the
-  // robot, a post) at one side: of 8 equal parts of the hits' lateral extent, 6 must hold hits.
+  // The ground's hits lie across the body, one beside the other; a wall's (a slab beside the
+  // robot, a post) run along it, ahead: their lateral spread must exceed their spread ahead, and
+  // (a slab on either side) of 8 equal parts of their lateral extent, 6 must hold hits.
   {
+    double mx = 0, my = 0;
+    for (const Point* p : kept) mx += p->x / kept.size(), my += p->y / kept.size();
+    double vx = 0, vy = 0;
+    for (const Point* p : kept) vx += (p->x - mx) * (p->x - mx), vy += (p->y - my) * (p->y - my);
+    if (!(vy > vx)) return std::nullopt;
     constexpr int kParts = 8, kPartsHeld = 6;
     double y_min = kept.front()->y, y_max = y_min;
     for (const Point* p : kept) y_min = std::min(y_min, p->y), y_max = std::max(y_max, p->y);

@@ -27,7 +27,8 @@ struct LidarGroundOptions {
   double min_agreeing = 0.2;        // ... and this fraction of the scans with a band
   double agreement_m = 0.02;        // scans agree when their heights are within this of each other
   double roughness_gate_m = 0.15;   // groundRoughnessFromScan: end points this far from the band
-                                    // start the line's fit; the gate then narrows to 4 spreads
+                                    // start the line's fit (the gate then narrows to 4 spreads),
+                                    // and this far below the line are a wall's
 };
 
 /// The body's height above the ground in one scan (T_B_L: LiDAR to body): minus the median body
@@ -49,16 +50,20 @@ struct GroundRoughness {
   int points = 0;         // ground end points about the line
 };
 
-/// The ground's roughness in one scan (nullopt without a ground band, as bodyHeightFromScan, or
-/// with fewer than options.min_points end points about the line). range_sigma_m: the LiDAR's range
-/// noise (rig.yaml's lidar.range_sigma_m).
+/// The ground's roughness in one scan: the line fitted from the densest roughness_gate_m-wide band
+/// of end points min_drop_m or more below the LiDAR, its gate narrowed to 4 spreads. nullopt with
+/// fewer than options.min_points end points about it, when they do not lie across the body (their
+/// lateral spread no larger than their spread ahead, or 3 of 8 parts of their lateral extent
+/// empty: a wall's), or when more than max_below_fraction of them lie roughness_gate_m below it.
+/// range_sigma_m: the LiDAR's range noise (rig.yaml's lidar.range_sigma_m).
 std::optional<GroundRoughness> groundRoughnessFromScan(const LidarScan& scan, const SE3& T_B_L,
                                                        double range_sigma_m,
                                                        const LidarGroundOptions& options = {});
 
 /// The terrain's height standard deviation from recent scans' roughness: the median spread less
 /// the median range-noise share, in quadrature (0 where the noise explains it all); nullopt with
-/// fewer than min_scans.
+/// fewer than min_scans. On markedly rough ground it reads low: the scans whose ground hides behind
+/// bumps give nothing, and those left are the smoother ones.
 std::optional<double> terrainRoughness(const std::deque<GroundRoughness>& scans, int min_scans);
 
 struct LidarCameraHeight {

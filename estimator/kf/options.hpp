@@ -22,8 +22,8 @@ struct KfEstimatorOptions {
   double lidar_min_baseline_m = 0.1;    // shorter spans (turning in place, stops) are skipped, m
   double lidar_max_rotation_deg = 5.0;  // ... and spans that turn more about the world's up
                                         // (their translation is the chain's weakest, and the
-                                        // scale follows it; pitch and roll over bumps count not),
-                                        // deg
+                                        // scale follows it; pitch and roll over bumps do not
+                                        // count), deg
   double scale_sigma0 = 0.3;            // prior on log(LiDAR/ground-plane scale) (camera height), 1
   double scale_walk = 0.002;            // its random walk, 1/sqrt(s)
   double scale_noise_floor = 0.05;      // smallest noise of one LiDAR measurement of it, 1

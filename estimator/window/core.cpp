@@ -96,9 +96,9 @@ void WindowCore::addScan(const LidarScan& scan) {
   scans_.setShift(gyroShift());
   LidarScan made = deskewed(scan);
   if (followsCameraHeight(model_) && !(options_.camera_height_path_sigma_m > 0.0)) {
-    // The terrain's roughness over the last 10 s of a 10 Hz LiDAR (labelGround's sigma).
+    // The terrain's roughness in the last 100 scans with a ground line (labelGround's sigma).
     constexpr std::size_t kRecentScans = 100;
-    if (const auto r = groundRoughnessFromScan(made, setup_.T_B_L, setup_.lidar_range_sigma_m))
+    if (const auto r = groundRoughnessFromScan(made, setup_.T_B_L, model_.lidar_range_sigma_m))
       ground_roughness_.push_back(*r);
     while (ground_roughness_.size() > kRecentScans) ground_roughness_.pop_front();
   }

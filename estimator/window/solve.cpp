@@ -57,6 +57,9 @@ ceres::Solver::Summary solveWithCeres(std::vector<FactorSpec>& factors,
     if (x.hold) {
       problem.SetParameterBlockConstant(x.block);
     } else {
+      // Within its bounds first (they may have narrowed since: an estimated sigma): Ceres refuses
+      // a start outside them.
+      x.block[0] = std::clamp(x.block[0], -x.max_abs, x.max_abs);
       problem.SetParameterLowerBound(x.block, 0, -x.max_abs);
       problem.SetParameterUpperBound(x.block, 0, x.max_abs);
     }

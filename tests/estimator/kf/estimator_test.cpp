@@ -168,7 +168,7 @@ TEST(KfEstimator, WithoutGyroFollowsVoRotationAndSaysSo) {
 // While the robot turns on the spot the chain's translation is its weakest part, and the tracks'
 // LiDAR ranges measured over such a span said the ground-plane scale was 2.8 % too long (the
 // full pure_rotation run: ATE 27.8 mm against vo's 16.2, scale error -1.5 %). Spans that turn
-// more than kf.lidar_max_rotation_deg are not used (12.8 mm, -0.36 %).
+// more than kf.lidar_max_rotation_deg about the world's up are not used (12.8 mm, -0.36 %).
 TEST(KfEstimator, TheLidarDoesNotRescaleWhileTurningOnTheSpot) {
   static const SimSequence seq = renderSimSequence("pure_rotation", {"camera.rate_hz=10"});
   const auto scaleError = [&](const std::vector<std::string>& sets) {

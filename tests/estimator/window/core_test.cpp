@@ -197,7 +197,9 @@ TEST(WindowCore, TheCameraHeightAlongThePathFindsARigHeightThatIsOff) {
 
 // Its sigma estimated (the default): the synthetic ground is flat, its LiDAR's ground beams spread
 // by their range noise alone, so the sigma stays at its floor (0.1 mm) and the corrections hold
-// the rig's height; the trajectory is the held one's to a millimetre.
+// the rig's height; the trajectory is the held one's to a millimetre. Told that its LiDAR has no
+// range noise (window.lidar_range_sigma_m 0.1 mm), the window reads the beams' 2.6 mm of spread as
+// terrain: the sigma is what the scans say.
 TEST(WindowCore, OnFlatGroundTheCameraHeightAlongThePathHoldsTheRigsHeight) {
   SyntheticOptions o;
   o.duration_s = 10.0;
@@ -219,6 +221,15 @@ TEST(WindowCore, OnFlatGroundTheCameraHeightAlongThePathHoldsTheRigsHeight) {
   RecordProperty("sigma_mm", std::to_string(1000.0 * *stats.camera_height_path_sigma_m));
   RecordProperty("end_apart_mm", std::to_string(1000.0 * apart));
   EXPECT_LT(apart, 1e-3);
+
+  options.lidar_range_sigma_m = 1e-4;
+  WindowCore noiseless(seq.setup, options);
+  test::feedSequence(seq, noiseless, [](std::size_t, const FrameEstimate&) {});
+  const auto sigma = noiseless.stats().camera_height_path_sigma_m;
+  ASSERT_TRUE(sigma.has_value());
+  RecordProperty("sigma_noiseless_mm", std::to_string(1000.0 * *sigma));
+  EXPECT_GT(*sigma, 1.5e-3);
+  EXPECT_LT(*sigma, 4e-3);
 }
 
 TEST(WindowCore, HoldsThePoseDuringAStandstill) {
