@@ -72,24 +72,28 @@ std::optional<GroundRoughness> groundRoughnessFromScan(const LidarScan& scan, co
   // spreads its end points over more than band_m).
   // A body rolled over rough ground puts one side of the line lower than the band: what lies below
   // the ground is checked against the fitted line instead (below).
-  const auto [low_z, valid] = lowEndPoints(scan, T_B_L, options.min_drop_m);
-  LidarGroundOptions seed = options;
-  seed.max_below_fraction = std::numeric_limits<double>::infinity();
-  const auto band = groundBand(low_z, valid, options.roughness_gate_m, seed);
-  if (!band) return std::nullopt;
   const double z_lidar = T_B_L.translation().z();
   struct Point {
     double x, y, z, up;  // up: the beam's |up component| in the body
   };
   std::vector<Point> low;
+  int valid = 0;
   for (std::size_t i = 0; i < scan.ranges_m.size(); ++i) {
     if (!scan.valid(i)) continue;
+    ++valid;
     const Vec3 p = T_B_L * scan.point_L(i);
     if (!p.allFinite() || p.z() > z_lidar - options.min_drop_m) continue;
     const double angle = scan.angle(i);
     const Vec3 beam_B = T_B_L.linear() * Vec3(std::cos(angle), std::sin(angle), 0.0);
     low.push_back({p.x(), p.y(), p.z(), std::abs(beam_B.z())});
   }
+  std::vector<double> low_z;
+  for (const Point& p : low) low_z.push_back(p.z);
+  std::sort(low_z.begin(), low_z.end());
+  LidarGroundOptions seed = options;
+  seed.max_below_fraction = std::numeric_limits<double>::infinity();
+  const auto band = groundBand(low_z, valid, options.roughness_gate_m, seed);
+  if (!band) return std::nullopt;
   // z = a + b y by least squares over the end points within the gate, from the band's height;
   // the gate then narrows to 4 robust spreads (at least 2 cm) and the line is fitted again.
   double a = *band, b = 0.0, gate = options.roughness_gate_m;
