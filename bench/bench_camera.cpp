@@ -62,7 +62,9 @@ std::vector<Vec2> validPixels(const cam::Camera& c, int n) {
   std::uniform_real_distribution<double> u(0, cam::width(c) - 1), v(0, cam::height(c) - 1);
   std::vector<Vec2> out;
   while (static_cast<int>(out.size()) < n) {
-    const Vec2 px(u(rng), v(rng));
+    const double pv = v(rng),
+                 pu = u(rng);  // one draw a statement: a call's arguments have no fixed order
+    const Vec2 px(pu, pv);
     if (cam::isValid(c, px)) out.push_back(px);
   }
   return out;

@@ -103,8 +103,10 @@ std::vector<BoardView> boardViews(const camera::Camera& cam, const BoardSceneOpt
     const double dist = rng.uniform(o.min_distance_m, o.max_distance_m);
     // Board normal (z_B, pointing away from the camera) tilted from the line of sight, and the
     // board turned about it by any angle.
-    const Vec3 tilt_axis =
-        dir.cross(Vec3(rng.uniform(-1, 1), rng.uniform(-1, 1), rng.uniform(-1, 1)));
+    const double tz = rng.uniform(-1, 1);  // one draw a statement (sim/random.hpp)
+    const double ty = rng.uniform(-1, 1);
+    const double tx = rng.uniform(-1, 1);
+    const Vec3 tilt_axis = dir.cross(Vec3(tx, ty, tz));
     if (tilt_axis.norm() < 1e-6) continue;
     const Vec3 z_B = rotationAbout(tilt_axis, rng.uniform(0.0, o.max_tilt_deg * kDeg)) * dir;
     Vec3 x_B = z_B.unitOrthogonal();
@@ -167,8 +169,9 @@ cv::Mat renderBoardView(const camera::Camera& cam, const BoardSceneOptions& o,
         for (int sy = 0; sy < ss; ++sy)
           for (int sx = 0; sx < ss; ++sx) {
             // Jittered samples: the expected value is the pixel's box-filtered radiance.
-            const Vec2 sub(u - 0.5 + (sx + rng.uniform()) / ss,
-                           v - 0.5 + (sy + rng.uniform()) / ss);
+            const double jitter_v = rng.uniform();  // one draw a statement (sim/random.hpp)
+            const double jitter_u = rng.uniform();
+            const Vec2 sub(u - 0.5 + (sx + jitter_u) / ss, v - 0.5 + (sy + jitter_v) / ss);
             const auto b = camera::unproject(cam, sub);
             if (!b) continue;
             ++n;

@@ -14,8 +14,12 @@ std::vector<ImuSample> simulateImu(const BodyTrajectory& trajectory, const ImuOp
   const double period_ns = 1e9 / o.rate_hz;
   const double dt = 1.0 / o.rate_hz;
   const int n = static_cast<int>(std::floor(duration_s * o.rate_hz + 1e-9)) + 1;
+  // One draw a statement (sim/random.hpp): z first, then y, then x.
   const auto draw = [&rng](double sigma) {
-    return Vec3(sigma * rng.normal(), sigma * rng.normal(), sigma * rng.normal());
+    const double z = rng.normal();
+    const double y = rng.normal();
+    const double x = rng.normal();
+    return Vec3(sigma * x, sigma * y, sigma * z);
   };
   Vec3 b_g = Vec3::Zero(), b_a = Vec3::Zero();
   if (o.noise) {

@@ -1,6 +1,11 @@
 // Deterministic, platform-independent random numbers for the simulator: SplitMix64 streams (one per
 // purpose, derived from the scenario seed) and stateless integer hashes for procedural textures.
 // std::normal_distribution is implementation-defined, so the simulator never uses it.
+// One draw a statement: the arguments of a call (and the operands of + or *) are evaluated in an
+// unspecified order, and GCC takes a call's arguments last to first on x86-64 but first to last on
+// aarch64, so `Vec3(rng.normal(), rng.normal(), rng.normal())` gave other data on ARM. Where a
+// vector is drawn, its components are drawn in the order that x86-64 gave (z, y, x), so that the
+// datasets made before are the same.
 #pragma once
 
 #include <cmath>

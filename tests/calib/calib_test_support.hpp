@@ -43,7 +43,7 @@ inline std::vector<BoardObservation> syntheticBoards(const camera::Camera& cam,
     const Vec3 dir(std::sin(off) * std::cos(azim), std::sin(off) * std::sin(azim), std::cos(off));
     const double dist = 0.35 + 0.15 * (uni(rng) + 1.0);
     // Board facing the camera, tilted by up to 40 deg and turned about its normal.
-    const Vec3 normal = (-dir + 0.5 * Vec3(uni(rng), uni(rng), uni(rng))).normalized();
+    const Vec3 normal = (-dir + 0.5 * ovo::test::draw3(uni, rng)).normalized();
     const double roll = M_PI * uni(rng);  // the board turned about its normal, any way
     Vec3 a = normal.cross(Vec3(std::cos(roll), std::sin(roll), 0.2)).normalized();
     Vec3 b = normal.cross(a);
@@ -64,7 +64,7 @@ inline std::vector<BoardObservation> syntheticBoards(const camera::Camera& cam,
         all = false;
         break;
       }
-      obs.corners_px.push_back(*px + noise_px * Vec2(gauss(rng), gauss(rng)));
+      obs.corners_px.push_back(*px + noise_px * ovo::test::draw2(gauss, rng));
       obs.points_B.push_back(spec.point(i));
     }
     if (!all) continue;

@@ -57,14 +57,14 @@ Synthetic synthesize(const Mat3& R_B_C, double t_d, const Vec3& bias, bool singl
     const double t = i / 200.0;
     ImuSample g;
     g.t_ns = t0 + fromSeconds(t);
-    g.gyro_radps = omega(t, single_axis) + bias +
-                   1.7e-4 * std::sqrt(200.0) * Vec3(n01(rng), n01(rng), n01(rng));
+    g.gyro_radps =
+        omega(t, single_axis) + bias + 1.7e-4 * std::sqrt(200.0) * ovo::test::draw3(n01, rng);
     s.gyro.push_back(g);
   }
   for (int k = 0; k + 1 < static_cast<int>(duration * 20) - 2; ++k) {
     const double ta = 0.5 + k * 0.05, tb = ta + 0.05;
     const Mat3 R_C0_C1 = R_B_C.transpose() * orientation(ta).transpose() * orientation(tb) * R_B_C;
-    const Mat3 noise = so3::exp(rot_noise_deg * kDeg * Vec3(n01(rng), n01(rng), n01(rng)));
+    const Mat3 noise = so3::exp(rot_noise_deg * kDeg * ovo::test::draw3(n01, rng));
     s.rotations.push_back({t0 + fromSeconds(ta + t_d), t0 + fromSeconds(tb + t_d),
                            (R_C0_C1 * noise).transpose(), 100});
   }

@@ -229,7 +229,9 @@ TEST(OcamModel, MatchesToolboxFormulasInOvoAxes) {
   std::mt19937 rng(7);
   std::uniform_real_distribution<double> u(0, 639), v(0, 479);
   for (int i = 0; i < 500; ++i) {
-    const Vec2 px(u(rng), v(rng));
+    const double pv = v(rng),
+                 pu = u(rng);  // one draw a statement, last first (test_support.hpp, draw3)
+    const Vec2 px(pu, pv);
     if (!cam.isValid(px)) continue;
     const Vec3 b_ocam = toolboxCam2World(p, px.y(), px.x());
     const Vec3 b_C = *cam.unproject(px);
@@ -270,7 +272,11 @@ std::vector<Vec3> pointsAhead(int n, unsigned seed) {
   std::mt19937 rng(seed);
   std::uniform_real_distribution<double> lateral(-4.0, 4.0), depth(2.0, 12.0);
   std::vector<Vec3> pts;
-  for (int i = 0; i < n; ++i) pts.emplace_back(lateral(rng), 0.5 * lateral(rng), depth(rng));
+  for (int i = 0; i < n; ++i) {
+    const double z = depth(rng), y = lateral(rng),
+                 x = lateral(rng);  // one draw a statement, last first (test_support.hpp, draw3)
+    pts.emplace_back(x, 0.5 * y, z);
+  }
   return pts;
 }
 

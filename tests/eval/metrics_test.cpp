@@ -8,6 +8,7 @@
 #include <random>
 
 #include "eval/align.hpp"
+#include "tests/test_support.hpp"
 
 namespace ovo::eval {
 namespace {
@@ -58,7 +59,7 @@ TEST(Umeyama, RecoversAKnownSimilarity) {
   const Vec3 t(4, -2, 1);
   const double s = 2.5;
   for (int i = 0; i < 50; ++i) {
-    from.emplace_back(g(rng), g(rng), g(rng));
+    from.push_back(ovo::test::draw3(g, rng));
     to.push_back(s * R * from.back() + t);
   }
   const auto sim3 = umeyama(from, to, true);
@@ -148,7 +149,7 @@ TEST(Ate, ErrorsResolvedInTheReferenceBodyAxes) {
   // With alignment and errors of every direction, the axes still split the ATE exactly.
   std::mt19937 rng(3);
   std::normal_distribution<double> noise(0.0, 0.05);
-  for (auto& p : est) p.T_W_B.translation() += Vec3(noise(rng), noise(rng), noise(rng));
+  for (auto& p : est) p.T_W_B.translation() += ovo::test::draw3(noise, rng);
   const auto se3 = computeAte(Associated{ref, est}, AlignMode::kSE3);
   ASSERT_TRUE(se3);
   EXPECT_NEAR(se3->body_rmse_m.squaredNorm(), se3->trans_m.rmse * se3->trans_m.rmse, 1e-12);

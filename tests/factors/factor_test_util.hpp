@@ -18,13 +18,13 @@ namespace ovo::factors::testing {
 
 inline Quat randomQuat(std::mt19937& rng, double max_angle_rad = 3.0) {
   std::uniform_real_distribution<double> u(-1.0, 1.0);
-  Vec3 axis(u(rng), u(rng), u(rng));
+  Vec3 axis = ovo::test::draw3(u, rng);
   axis.normalize();
   return Quat(Eigen::AngleAxisd(max_angle_rad * 0.5 * (u(rng) + 1.0), axis));
 }
 inline Vec3 randomVec(std::mt19937& rng, double scale = 1.0) {
   std::uniform_real_distribution<double> u(-scale, scale);
-  return Vec3(u(rng), u(rng), u(rng));
+  return ovo::test::draw3(u, rng);
 }
 inline SE3 randomPose(std::mt19937& rng, double max_angle_rad = 3.0, double scale = 2.0) {
   SE3 T = SE3::Identity();

@@ -13,6 +13,7 @@
 #include "factors/pose_prior_factor.hpp"
 #include "factors/terrain_plane_factor.hpp"
 #include "tests/factors/factor_test_util.hpp"
+#include "tests/test_support.hpp"
 
 namespace ovo::factors {
 namespace {
@@ -81,7 +82,7 @@ class LinearChain {
   explicit LinearChain(unsigned seed) : rng_(seed) {
     std::normal_distribution<double> n(0.0, 1.0);
     const auto noisy = [&](const Vec3& v, double s) {
-      return Vec3(v + s * Vec3(n(rng_), n(rng_), n(rng_)));
+      return Vec3(v + s * ovo::test::draw3(n, rng_));
     };
     const auto whitening = [&]() { return Mat3(Mat3::Identity() * 2.0 + 0.5 * Mat3::Random()); };
     for (int k = 0; k < kStates; ++k) {

@@ -39,7 +39,11 @@ TEST(Delaunay, RandomPointsHaveEmptyCircumcirclesAndEulerCount) {
   std::mt19937 rng(7);
   std::uniform_real_distribution<double> u(0.0, 640.0), v(0.0, 480.0);
   std::vector<Vec2> pts(1500);
-  for (Vec2& p : pts) p = Vec2(u(rng), v(rng));
+  for (Vec2& p : pts) {
+    const double y = v(rng),
+                 x = u(rng);  // one draw a statement, last first (test_support.hpp, draw3)
+    p = Vec2(x, y);
+  }
   const auto tris = delaunayTriangles(pts);
   // A triangulation of n points with h on the hull has 2n - 2 - h triangles; the enclosing
   // triangle may cost a few thin ones along the hull.
@@ -81,7 +85,11 @@ TEST(Delaunay, IntegerPixelsWithManyCocircularPointsGiveAnExactDelaunayTiling) {
   std::mt19937 rng(11);
   std::uniform_int_distribution<int> u(0, 119), v(0, 89);
   std::vector<Vec2> pts(2500);
-  for (Vec2& p : pts) p = Vec2(u(rng), v(rng));
+  for (Vec2& p : pts) {
+    const double y = v(rng),
+                 x = u(rng);  // one draw a statement, last first (test_support.hpp, draw3)
+    p = Vec2(x, y);
+  }
   const auto tris = delaunayTriangles(pts);
   std::vector<Vec2> distinct = pts;
   std::sort(distinct.begin(), distinct.end(), [](const Vec2& a, const Vec2& b) {

@@ -15,11 +15,15 @@ std::vector<Vec3> scene(double pitch_rad, double scale, int n_ground, int n_clut
   // Level frame: y down; camera rotated about x by pitch (positive = looking down).
   const Mat3 R_C_level = Eigen::AngleAxisd(-pitch_rad, Vec3::UnitX()).toRotationMatrix();
   std::vector<Vec3> pts;
-  for (int i = 0; i < n_ground; ++i)
-    pts.push_back(scale * (R_C_level * Vec3(ux(rng), 1.65 + noise(rng), uz(rng))));
+  for (int i = 0; i < n_ground; ++i) {
+    const double z = uz(rng), y = 1.65 + noise(rng),
+                 x = ux(rng);  // one draw a statement, last first (test_support.hpp, draw3)
+    pts.push_back(scale * (R_C_level * Vec3(x, y, z)));
+  }
   for (int i = 0; i < n_clutter; ++i) {
     std::uniform_real_distribution<double> uy(-3, 1.2);
-    pts.push_back(scale * (R_C_level * Vec3(ux(rng), uy(rng), uz(rng))));
+    const double z = uz(rng), y = uy(rng), x = ux(rng);
+    pts.push_back(scale * (R_C_level * Vec3(x, y, z)));
   }
   return pts;
 }

@@ -90,8 +90,10 @@ std::vector<ScaleFeature> slabFeatures(const camera::Camera& cam, int n, std::mt
     const Vec3 p_C = T_C_B * p_B;
     const auto px = camera::project(cam, p_C);
     if (!px || !camera::isValid(cam, *px)) continue;
-    features.push_back(
-        {*px + Vec2(px_noise(rng), px_noise(rng)), p_C * (1.0 + depth_noise(rng)) / kTrueScale});
+    const double nv = px_noise(rng),
+                 nu = px_noise(rng);  // one draw a statement, last first (test_support.hpp, draw3)
+    const double depth_factor = 1.0 + depth_noise(rng);
+    features.push_back({*px + Vec2(nu, nv), p_C * depth_factor / kTrueScale});
   }
   return features;
 }

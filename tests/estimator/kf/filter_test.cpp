@@ -9,6 +9,7 @@
 
 #include "common/error.hpp"
 #include "common/so3.hpp"
+#include "tests/test_support.hpp"
 
 namespace ovo::estimator {
 namespace {
@@ -67,13 +68,12 @@ Streams makeStreams(double duration_s, unsigned seed) {
     }
     ImuSample sample;
     sample.t_ns = fromSeconds(t);
-    sample.gyro_radps =
-        trueRate(t) + kTrueBias + gyro_sigma * Vec3(normal(rng), normal(rng), normal(rng));
+    sample.gyro_radps = trueRate(t) + kTrueBias + gyro_sigma * ovo::test::draw3(normal, rng);
     s.gyro.push_back(sample);
     if (k % gyro_per_frame == 0) {
       const Mat3 R_true_rel = R_prev_frame.transpose() * R;
       const double sigma = kVoSigma0 + kVoSigmaPerRad * so3::angle(R_true_rel);
-      const Vec3 n = sigma * Vec3(normal(rng), normal(rng), normal(rng));
+      const Vec3 n = sigma * ovo::test::draw3(normal, rng);
       s.frames.push_back({sample.t_ns, R, R_true_rel * so3::exp(n)});
       R_prev_frame = R;
     }
@@ -351,7 +351,7 @@ TEST(KfFilter, ZeroRateUpdatesAtStandstillFindTheBiasWithinGyroNoise) {
   for (int i = 1; i <= 200; ++i) {
     ImuSample g;
     g.t_ns = fromSeconds(i * dt);
-    g.gyro_radps = kTrueBias + sample_sigma * Vec3(normal(rng), normal(rng), normal(rng));
+    g.gyro_radps = kTrueBias + sample_sigma * ovo::test::draw3(normal, rng);
     kf.propagate(g);
     sum += g.gyro_radps;
     if (++n == 10) {

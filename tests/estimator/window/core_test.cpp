@@ -452,7 +452,7 @@ TEST(WindowCore, AStandstillAfterInitialisationMeasuresTheGyroBias) {
     const bool moving = t < o.stop_from_s || t > o.stop_to_s;
     for (auto& obs : f.visual.observations) {
       Vec2& d = walk.try_emplace(obs.track_id, Vec2::Zero()).first->second;
-      if (moving) d += Vec2(step(rng), step(rng));
+      if (moving) d += ovo::test::draw2(step, rng);
       if (auto b = camera::unproject(seq.setup.camera, obs.px + d)) {
         obs.px += d;
         obs.bearing_C = *b;

@@ -27,8 +27,9 @@ void addAnchor(std::unordered_map<TrackId, Landmark>& lms, int kf, double scale,
   std::mt19937_64 rng(seed);
   std::uniform_real_distribution<double> ux(-6, 6), uz(3, 25), noise(-0.01, 0.01), uy(-3, 1.0);
   for (int i = 0; i < 160; ++i) {
-    const Vec3 p = scale * (i < 100 ? Vec3(ux(rng), 1.65 + noise(rng), uz(rng))
-                                    : Vec3(ux(rng), uy(rng), uz(rng)));
+    const double z = uz(rng), y = i < 100 ? 1.65 + noise(rng) : uy(rng),
+                 x = ux(rng);  // one draw a statement, last first (test_support.hpp, draw3)
+    const Vec3 p = scale * Vec3(x, y, z);
     Landmark lm;
     lm.id = static_cast<TrackId>(lms.size() + 1);
     lm.anchor_kf = kf;

@@ -444,7 +444,9 @@ TEST(WindowLandmarks, FarPointsStayAsPointsAtInfinity) {
   std::vector<Vec3> points;
   std::mt19937 rng(4);
   std::uniform_real_distribution<double> u(-1.0, 1.0);
-  for (int i = 0; i < 40; ++i) points.emplace_back(3.0 * u(rng), 2.0 * u(rng), 6.0 + 2.0 * u(rng));
+  for (int i = 0; i < 40; ++i)
+    points.push_back(Vec3(3.0, 2.0, 2.0).cwiseProduct(ovo::test::draw3(u, rng)) +
+                     Vec3(0.0, 0.0, 6.0));
   for (int i = 0; i < 10; ++i) points.emplace_back(200.0 * u(rng), -50.0, 500.0);
   SmallWindow w = smallWindow(points);
   std::vector<Keyframe*> kfs;

@@ -7,6 +7,8 @@
 
 #include <random>
 
+#include "tests/test_support.hpp"
+
 namespace ovo::estimator {
 namespace {
 
@@ -23,7 +25,7 @@ void feed(StandstillBias& z, const Vec3& bias, double still_s, double onset_s, s
   const int onset = static_cast<int>(std::lround(onset_s / kFrameS));
   for (int k = 0; k < still + onset; ++k) {
     const double ramp = k < still ? 0.0 : static_cast<double>(k - still + 1) / onset;
-    const Vec3 rate = bias + ramp * Vec3(0.01, 0.0, 0.005) + Vec3(n(rng), n(rng), n(rng));
+    const Vec3 rate = bias + ramp * Vec3(0.01, 0.0, 0.005) + ovo::test::draw3(n, rng);
     z.add(fromSeconds(1.0 + (k + 1) * kFrameS), rate * kFrameS, kFrameS);
   }
 }
@@ -89,7 +91,7 @@ TEST(StandstillBias, AnHourParkedHoldsOnlyTheFramesItMayTrim) {
   Vec3 sum = Vec3::Zero();
   const int frames = 72000;
   for (int k = 0; k < frames; ++k) {
-    const Vec3 rotation = (bias + Vec3(n(rng), n(rng), n(rng))) * kFrameS;
+    const Vec3 rotation = (bias + ovo::test::draw3(n, rng)) * kFrameS;
     sum += rotation;
     z.add(fromSeconds(1.0 + (k + 1) * kFrameS), rotation, kFrameS);
   }

@@ -16,6 +16,7 @@
 #include "common/so3.hpp"
 #include "estimator/estimator.hpp"
 #include "estimator/window/map.hpp"
+#include "tests/test_support.hpp"
 
 namespace ovo::test {
 
@@ -131,11 +132,15 @@ inline SyntheticSequence makeSyntheticSequence(const SyntheticOptions& o,
   // Landmarks: canopy slabs at y = +-1.25 (0.5..1.9 m high) and the ground, x in [-5, 40].
   std::vector<Vec3> points;
   for (int side = -1; side <= 1; side += 2)
-    for (int i = 0; i < 3000; ++i)
-      points.emplace_back(-5.0 + 45.0 * uni(rng), side * (1.25 + 0.1 * (uni(rng) - 0.5)),
-                          0.5 + 1.4 * uni(rng));
-  for (int i = 0; i < 1000; ++i)
-    points.emplace_back(-5.0 + 45.0 * uni(rng), -1.1 + 2.2 * uni(rng), 0.0);
+    for (int i = 0; i < 3000; ++i) {
+      const Vec3 r = draw3(uni, rng);
+      points.emplace_back(-5.0 + 45.0 * r.x(), side * (1.25 + 0.1 * (r.y() - 0.5)),
+                          0.5 + 1.4 * r.z());
+    }
+  for (int i = 0; i < 1000; ++i) {
+    const Vec2 r = draw2(uni, rng);
+    points.emplace_back(-5.0 + 45.0 * r.x(), -1.1 + 2.2 * r.y(), 0.0);
+  }
 
   // Trajectory by integration at 1 kHz.
   const double dt = 1e-3;
@@ -173,8 +178,8 @@ inline SyntheticSequence makeSyntheticSequence(const SyntheticOptions& o,
     const int k = std::min(steps - 1, static_cast<int>(std::lround(t / dt)));
     ImuSample s;
     s.t_ns = fromSeconds(t);
-    s.gyro_radps = Vec3(0, 0, yaw_rate[k]) + o.gyro_bias +
-                   gyro_sigma * Vec3(gauss(rng), gauss(rng), gauss(rng));
+    s.gyro_radps =
+        Vec3(0, 0, yaw_rate[k]) + o.gyro_bias + gyro_sigma * ovo::test::draw3(gauss, rng);
     // The specific force R_W_B^T (a_W - g_W), a_W from the positions' second differences.
     const int k0 = std::clamp(k, 1, steps - 2);
     const Vec3 a_W = (poses[k0 + 1].translation() - 2.0 * poses[k0].translation() +
@@ -196,7 +201,7 @@ inline SyntheticSequence makeSyntheticSequence(const SyntheticOptions& o,
     frame.visual.t_ns = frame.t_ns;
     const Mat3 R_jitter =
         (o.vision_rotation_jitter_rad > 0.0
-             ? so3::exp(o.vision_rotation_jitter_rad * Vec3(gauss(rng), gauss(rng), gauss(rng)))
+             ? so3::exp(o.vision_rotation_jitter_rad * ovo::test::draw3(gauss, rng))
              : Mat3::Identity());
     const Mat3 R_drift = so3::exp(Vec3(o.vision_drift_radps * t, 0.0, 0.0));
     const SE3 T_C_W = (frame.T_W_B * T_B_C).inverse();
@@ -207,12 +212,12 @@ inline SyntheticSequence makeSyntheticSequence(const SyntheticOptions& o,
       if (d < 0.3 || d > 12.0 || p_C.z() < -0.2 * d) continue;
       const auto px = camera::project(seq.setup.camera, p_C);
       if (!px || !camera::isValid(seq.setup.camera, *px)) continue;
-      Vec2 noisy = *px + o.pixel_sigma * Vec2(gauss(rng), gauss(rng));
+      Vec2 noisy = *px + o.pixel_sigma * ovo::test::draw2(gauss, rng);
       int age = 1;
       if (o.track_creep_px > 0.0) {  // a track lives while its point stays in view
         auto& [last_f, walk_px, track_age] = creep[i];
         if (last_f != f - 1) walk_px.setZero(), track_age = 0;
-        walk_px += o.track_creep_px * Vec2(gauss(rng), gauss(rng));
+        walk_px += o.track_creep_px * ovo::test::draw2(gauss, rng);
         last_f = f;
         age = ++track_age;
         noisy += walk_px;

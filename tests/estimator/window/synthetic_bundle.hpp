@@ -22,6 +22,7 @@
 #include "factors/lidar_range_factor.hpp"
 #include "factors/parameterization.hpp"
 #include "factors/pose_prior_factor.hpp"
+#include "tests/test_support.hpp"
 
 namespace ovo::test {
 
@@ -60,7 +61,7 @@ struct SyntheticBundle {
       T.linear() = so3::exp(Vec3(0.01 * std::sin(k), 0.01, 0.05 * k));
       T.translation() = Vec3(0.3 * k, 0.02 * k * k, 0.01 * std::sin(k));
       T_W_B.push_back(T);
-      factors::quatToBlock(Quat(so3::exp(0.01 * Vec3(n(rng), n(rng), n(rng))) * T.rotation()),
+      factors::quatToBlock(Quat(so3::exp(0.01 * ovo::test::draw3(n, rng)) * T.rotation()),
                            q[k].data());
       for (int i = 0; i < 3; ++i) p[k][i] = T.translation()[i] + 0.05 * n(rng);
     }
@@ -68,7 +69,8 @@ struct SyntheticBundle {
     const double sigma = 1.0 / 305.0;
     for (int l = 0; l < landmarks; ++l) {
       const int anchor = l % 5;
-      const Vec3 dir_C = Vec3(u(rng), 0.5 * u(rng), 1.0).normalized();
+      const Vec2 r = draw2(u, rng);
+      const Vec3 dir_C = Vec3(r.x(), 0.5 * r.y(), 1.0).normalized();
       const double depth = 3.0 + 17.0 * 0.5 * (u(rng) + 1.0);
       const Vec3 p_W = T_W_B[anchor] * T_B_C * (depth * dir_C);
       rho.push_back(1.0 / depth * (1.0 + 0.1 * n(rng)));
@@ -76,7 +78,7 @@ struct SyntheticBundle {
         Vec3 b_Cj = ((T_W_B[j] * T_B_C).inverse() * p_W).normalized();
         if (outlier_fraction > 0.0 && 0.5 * (u(rng) + 1.0) < outlier_fraction)  // 2 deg off
           b_Cj = (so3::exp(Vec3(0.035, -0.02, 0.01)) * b_Cj).normalized();
-        const Vec3 noisy = (b_Cj + sigma * Vec3(n(rng), n(rng), n(rng))).normalized();
+        const Vec3 noisy = (b_Cj + sigma * ovo::test::draw3(n, rng)).normalized();
         residuals.push_back(
             {std::make_shared<factors::BearingFactor>(dir_C, noisy, T_B_C, sigma),
              true,
@@ -97,7 +99,7 @@ struct SyntheticBundle {
       for (Timestamp t = k * kStep; t < (k + 1) * kStep; t += 5'000'000) {
         ImuSample s;
         s.t_ns = t;
-        s.gyro_radps = w + Vec3(0.01, -0.005, 0.02) + 0.003 * Vec3(n(rng), n(rng), n(rng));
+        s.gyro_radps = w + Vec3(0.01, -0.005, 0.02) + 0.003 * ovo::test::draw3(n, rng);
         samples.push_back(s);
       }
     }
