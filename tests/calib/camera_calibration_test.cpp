@@ -65,9 +65,11 @@ TEST(CameraCalibration, KannalaBrandtRecoversItsOwnModel) {
   const auto& p = std::get<camera::KannalaBrandtCamera>(*r.camera).params();
   EXPECT_NEAR(p.fx, 190.0, 0.5);
   EXPECT_NEAR(p.cy, 257.0, 0.5);
-  // Within the boards' coverage (the polynomial extrapolates beyond it).
+  // Within the boards' coverage (the polynomial extrapolates beyond it). Over 40 seeds of this
+  // set-up the largest bearing error is 0.043 deg at the median and at most 0.081 deg (this seed:
+  // 0.022), so the bound sits above the spread of the noise's draws, not at this seed's luck.
   const BearingComparison cmp = compareBearings(truth, *r.camera, 8, false, 80.0);
-  EXPECT_LT(cmp.max_deg, 0.05);
+  EXPECT_LT(cmp.max_deg, 0.1);
 }
 
 TEST(CameraCalibration, PinholeRecoversItsOwnModel) {

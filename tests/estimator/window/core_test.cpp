@@ -636,26 +636,39 @@ TEST(WindowCore, NoKeyframeWaitsForALidarOutOfStepWithTheCamera) {
 
 // A LiDAR out of step with the camera: each scan 30 ms after a frame, so none belongs to a frame,
 // and the LiDAR is the only scale (no camera height). A keyframe takes the latest scan up to
-// lidar_scan_max_age_s (50 ms) older: here 20 ms, for keyframes on odd frames.
+// lidar_scan_max_age_s (50 ms) older: here 20 ms, for keyframes on odd frames. On this 4 m
+// sequence the LiDAR's scale is good to about 1 %, in step or not, and which keyframes fall on odd
+// frames depends on the noise; so the test runs eight seeds and bounds each and their median.
+// Measured over 24 seeds: |scale - 1| median 0.66 %, at most 2.2 % (a LiDAR in step: 0.52 %,
+// 2.1 %); the median of eight seeds 0.27-0.96 %; LiDAR on 30-46 % of the keyframes of eight seeds
+// (9-70 % on one).
 TEST(WindowCore, ALidarOutOfStepWithTheCameraStillGivesTheScale) {
-  SyntheticOptions o;
-  o.lidar_delay_s = 0.03;
-  auto seq = makeSyntheticSequence(o);
-  seq.setup.camera_height_m.reset();
-  const auto r = run(seq);
-  expectAllFinite(r);
-  const SE3 T_true = truthRel(seq, seq.frames.size() - 1);
-  const SE3 T_est = r.trajectory.back().T_W_B;
-  const double scale = T_est.translation().norm() / T_true.translation().norm();
-  // Measured: 1.0018, 7.8 mm off after 3.96 m; 6 of 10 keyframes with LiDAR ranges.
-  EXPECT_NEAR(scale, 1.0, 0.01) << "final distance from the start, estimated / true";
-  EXPECT_LT((T_est.translation() - T_true.translation()).norm(), 0.01 * pathLength(seq));
-  EXPECT_GE(r.stats.lidar_keyframes, r.stats.keyframes * 4 / 10);
-  // Only scans at the frames' own times: the LiDAR goes unused and the scale is a guess.
-  WindowOptions only_own_time;
-  only_own_time.lidar_scan_max_age_s = 0.0;
-  const auto without = run(seq, only_own_time);
-  EXPECT_EQ(without.stats.lidar_keyframes, 0);
+  std::vector<double> scale_errors;
+  int lidar_keyframes = 0, keyframes = 0;
+  for (std::uint32_t seed = 1; seed <= 8; ++seed) {
+    SyntheticOptions o;
+    o.lidar_delay_s = 0.03;
+    o.seed = seed;
+    auto seq = makeSyntheticSequence(o);
+    seq.setup.camera_height_m.reset();
+    const auto r = run(seq);
+    expectAllFinite(r);
+    const SE3 T_true = truthRel(seq, seq.frames.size() - 1);
+    const SE3 T_est = r.trajectory.back().T_W_B;
+    const double scale = T_est.translation().norm() / T_true.translation().norm();
+    EXPECT_NEAR(scale, 1.0, 0.03) << "seed " << seed << ": final distance, estimated / true";
+    EXPECT_GE(r.stats.lidar_keyframes, 1) << "seed " << seed;
+    scale_errors.push_back(std::abs(scale - 1.0));
+    lidar_keyframes += r.stats.lidar_keyframes;
+    keyframes += r.stats.keyframes;
+    // Only scans at the frames' own times: the LiDAR goes unused and the scale is a guess.
+    WindowOptions only_own_time;
+    only_own_time.lidar_scan_max_age_s = 0.0;
+    EXPECT_EQ(run(seq, only_own_time).stats.lidar_keyframes, 0) << "seed " << seed;
+  }
+  std::nth_element(scale_errors.begin(), scale_errors.begin() + 4, scale_errors.end());
+  EXPECT_LT(scale_errors[4], 0.015) << "median |scale - 1| over the seeds";
+  EXPECT_GE(lidar_keyframes, keyframes / 5) << lidar_keyframes << " of " << keyframes;
 }
 
 // Where a keyframe's older scan was taken: its LiDAR pose in the keyframe's body frame is the
