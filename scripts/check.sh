@@ -28,6 +28,11 @@
 #       ones, the source tree and ../shared/data mounted in it. Needs root (or sudo) for
 #       debootstrap, mount and chroot. ROS 1 bags are off (OVO_WITH_ROS1=OFF: Debian 12 has no
 #       arm64 librosbag-storage-dev); their tests skip. Not part of CI (an hour or more).
+#       Without ctest options the end-to-end subset follows the tests: a short simulated row made
+#       by the x86-64 build (build/, built when missing), `ovo run` of vo, kf and window on it by
+#       both builds, and each arm64 trajectory compared with the x86-64 one at the same stamps
+#       (RMS of the position difference, no alignment) against ARM64_TOLERANCE_M below.
+#       `scripts/check.sh arm64 --compare` builds and runs that subset alone.
 #
 # Environment: OVO_JOBS (parallel build jobs, default nproc), OVO_SHARED_DATA (../shared/data).
 set -euo pipefail
@@ -267,19 +272,65 @@ cmd_arm64() {
     $sudo chroot "$root" bash -c "dpkg --add-architecture arm64 && apt-get update -qq &&
       DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends ${ARM64_PACKAGES[*]}"
   fi
-  local start ctest_args=("$@")
-  [ ${#ctest_args[@]} -gt 0 ] || ctest_args=(-LE apps)
+  local start ctest_args=("$@") compare=0 tests=1
+  if [ "${1:-}" = --compare ]; then
+    compare=1 tests=0
+  elif [ ${#ctest_args[@]} -eq 0 ]; then
+    compare=1 ctest_args=(-LE apps)
+  fi
   start=$(date +%s)
   $sudo chroot "$root" bash -c "cd /ovo && cmake -S . -B build-arm64/out -G Ninja \
       -DCMAKE_TOOLCHAIN_FILE=cmake/toolchains/aarch64-linux-gnu.cmake -DCMAKE_BUILD_TYPE=Release \
       -DOVO_WITH_ROS1=OFF -DOVO_BUILD_BENCH=OFF >/dev/null && cmake --build build-arm64/out -j $JOBS"
   echo "check.sh arm64: build $(($(date +%s) - start)) s"
-  start=$(date +%s)
   local status=0
-  $sudo chroot "$root" bash -c "cd /ovo/build-arm64/out && POCL_CACHE_DIR=/tmp/pocl \
-      ctest --output-on-failure -j $JOBS --timeout 3600 $(printf '%q ' "${ctest_args[@]}")" || status=$?
-  echo "check.sh arm64: ctest $(($(date +%s) - start)) s"
+  if ((tests)); then
+    start=$(date +%s)
+    $sudo chroot "$root" bash -c "cd /ovo/build-arm64/out && POCL_CACHE_DIR=/tmp/pocl \
+        ctest --output-on-failure -j $JOBS --timeout 3600 $(printf '%q ' "${ctest_args[@]}")" ||
+      status=$?
+    echo "check.sh arm64: ctest $(($(date +%s) - start)) s"
+  fi
+  if ((compare)); then arm64_compare "$root" || status=1; fi
   return $status
+}
+
+# The largest RMS difference between the arm64 and the x86-64 trajectory of one estimator on the
+# end-to-end subset's row, in metres (docs/speed.md#arm64 gives the measured differences).
+ARM64_TOLERANCE_M=0.002
+
+# arm64_compare <root>: the end-to-end subset of `check.sh arm64` (see the header).
+arm64_compare() {
+  local root=$1 work=build-arm64/compare e rms max status=0
+  if [ ! -x build/ovo ]; then
+    configure build -DCMAKE_BUILD_TYPE=Release
+    cmake --build build --target ovo -j "$JOBS"
+  fi
+  rm -rf "$work"
+  mkdir -p "$work"
+  build/ovo simulate --duration 8 --out "$work/data" >"$work/simulate.log" 2>&1
+  for e in vo kf window; do
+    build/ovo run --quiet --dataset "$work/data" --estimator $e --out "$work/x86_64/$e" \
+      >"$work/x86_64_$e.log" 2>&1
+    $sudo chroot "$root" bash -c "cd /ovo && qemu-aarch64 build-arm64/out/ovo run --quiet \
+        --dataset $work/data --estimator $e --out $work/arm64/$e" >"$work/arm64_$e.log" 2>&1 ||
+      { echo "check.sh arm64: ovo run --estimator $e failed under qemu ($work/arm64_$e.log)"; status=1; continue; }
+    build/ovo eval --gt "$work/x86_64/$e/trajectory.txt" --est "$work/arm64/$e/trajectory.txt" \
+      --format tum --align none >"$work/$e.json"
+    rms=$(awk -F': ' '/"rmse"/ {sub(/,$/, "", $2); print $2; exit}' "$work/$e.json")
+    max=$(awk -F': ' '/"max"/ {sub(/,$/, "", $2); print $2; exit}' "$work/$e.json")
+    printf 'check.sh arm64: %-6s arm64 vs x86-64: RMS %.6f m, max %.6f m (ATE x86-64 %s, arm64 %s)\n' \
+      $e "$rms" "$max" "$(ate_of "$work/x86_64/$e" "$work/data")" "$(ate_of "$work/arm64/$e" "$work/data")"
+    awk -v r="$rms" -v t=$ARM64_TOLERANCE_M 'BEGIN { exit !(r <= t) }' ||
+      { echo "check.sh arm64: $e differs by more than $ARM64_TOLERANCE_M m"; status=1; }
+  done
+  return $status
+}
+
+# ate_of <run folder> <dataset>: the run's ATE against the dataset's ground truth, in metres.
+ate_of() {
+  build/ovo eval --gt "$2/groundtruth.txt" --est "$1/trajectory.txt" |
+    awk -F': ' '/"rmse"/ {sub(/,$/, "", $2); printf "%.4f m", $2; exit}'
 }
 
 cmd=${1:-help}
