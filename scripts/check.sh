@@ -296,8 +296,9 @@ cmd_arm64() {
 }
 
 # The largest RMS difference between the arm64 and the x86-64 trajectory of one estimator on the
-# end-to-end subset's row, in metres (docs/speed.md#arm64 gives the measured differences).
-ARM64_TOLERANCE_M=0.002
+# end-to-end subset's row, in metres: measured 3e-15 to 6e-13 (rounding), while one decision taken
+# otherwise (another RANSAC seed) moves them by 1e-4 (docs/speed.md#arm64).
+ARM64_TOLERANCE_M=0.000001
 
 # arm64_compare <root>: the end-to-end subset of `check.sh arm64` (see the header).
 arm64_compare() {
@@ -319,7 +320,7 @@ arm64_compare() {
       --format tum --align none >"$work/$e.json"
     rms=$(awk -F': ' '/"rmse"/ {sub(/,$/, "", $2); print $2; exit}' "$work/$e.json")
     max=$(awk -F': ' '/"max"/ {sub(/,$/, "", $2); print $2; exit}' "$work/$e.json")
-    printf 'check.sh arm64: %-6s arm64 vs x86-64: RMS %.6f m, max %.6f m (ATE x86-64 %s, arm64 %s)\n' \
+    printf 'check.sh arm64: %-6s arm64 vs x86-64: RMS %.3g m, max %.3g m (ATE x86-64 %s, arm64 %s)\n' \
       $e "$rms" "$max" "$(ate_of "$work/x86_64/$e" "$work/data")" "$(ate_of "$work/arm64/$e" "$work/data")"
     awk -v r="$rms" -v t=$ARM64_TOLERANCE_M 'BEGIN { exit !(r <= t) }' ||
       { echo "check.sh arm64: $e differs by more than $ARM64_TOLERANCE_M m"; status=1; }
