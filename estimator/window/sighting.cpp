@@ -55,7 +55,9 @@ std::vector<ObservationError> observationErrors(const std::vector<Keyframe*>& ke
         out.push_back({kf->id, id, M_PI, std::numeric_limits<double>::infinity()});
         continue;
       }
-      const double angle = std::acos(std::clamp(u->u.dot(o.bearing_C), -1.0, 1.0));
+      // atan2, not acos of the dot product: acos cannot resolve an angle below sqrt(eps)
+      // (1.5e-8 rad), so one rounding of the dot product made an exact sighting read that.
+      const double angle = std::atan2(u->u.cross(o.bearing_C).norm(), u->u.dot(o.bearing_C));
       // In the sighting's own sigmas: its tangent-plane offset whitened as its factor would be
       // against the anchor (pixel noise and creep since the anchor, through the camera).
       const Mat2 W = sightingSqrtInformation(o, anchorSigmaPx(anchor, o, model), model);
