@@ -54,8 +54,8 @@ void expectJacobians(const Model& cam, double max_off_axis, int n, unsigned seed
   std::uniform_real_distribution<double> az(-std::numbers::pi, std::numbers::pi),
       off(0.0, max_off_axis), range(0.3, 30.0);
   for (int i = 0; i < n; ++i) {
-    const double r = range(rng), a = az(rng),
-                 o = off(rng);  // one draw a statement, last first (test_support.hpp, draw3)
+    // Sequenced draws, the last component first (see draw3 in tests/test_support.hpp).
+    const double r = range(rng), a = az(rng), o = off(rng);
     const Vec3 p = rayAt(o, a, r);
     Eigen::Matrix<double, 2, 3> J;
     ASSERT_TRUE(cam.project(p, &J)) << p.transpose();
@@ -76,8 +76,8 @@ TEST(KannalaBrandt, MatchesOpenCvFisheyeProjectPoints) {
       range(0.5, 20.0);  // cv::fisheye works on x/z: z > 0 only
   std::vector<cv::Point3d> pts;
   for (int i = 0; i < 500; ++i) {
-    const double r = range(rng), a = az(rng),
-                 o = off(rng);  // one draw a statement, last first (test_support.hpp, draw3)
+    // Sequenced draws, the last component first (see draw3 in tests/test_support.hpp).
+    const double r = range(rng), a = az(rng), o = off(rng);
     const Vec3 q = rayAt(o, a, r);
     pts.emplace_back(q.x(), q.y(), q.z());
   }
@@ -130,8 +130,8 @@ TEST(PinholeRadtan, MatchesOpenCvProjectPoints) {
     std::vector<cv::Point3d> pts;
     for (int i = 0; i < 500; ++i) {
       const double z = depth(rng);
-      const double y = xy(rng),
-                   x = xy(rng);  // one draw a statement, last first (test_support.hpp, draw3)
+      // Sequenced draws, the last component first (see draw3 in tests/test_support.hpp).
+      const double y = xy(rng), x = xy(rng);
       pts.emplace_back(x * z, y * z, z);
     }
     std::vector<cv::Point2d> px_cv;

@@ -229,8 +229,8 @@ TEST(OcamModel, MatchesToolboxFormulasInOvoAxes) {
   std::mt19937 rng(7);
   std::uniform_real_distribution<double> u(0, 639), v(0, 479);
   for (int i = 0; i < 500; ++i) {
-    const double pv = v(rng),
-                 pu = u(rng);  // one draw a statement, last first (test_support.hpp, draw3)
+    // Sequenced draws, the last component first (see draw3 in tests/test_support.hpp).
+    const double pv = v(rng), pu = u(rng);
     const Vec2 px(pu, pv);
     if (!cam.isValid(px)) continue;
     const Vec3 b_ocam = toolboxCam2World(p, px.y(), px.x());
@@ -273,8 +273,8 @@ std::vector<Vec3> pointsAhead(int n, unsigned seed) {
   std::uniform_real_distribution<double> lateral(-4.0, 4.0), depth(2.0, 12.0);
   std::vector<Vec3> pts;
   for (int i = 0; i < n; ++i) {
-    const double z = depth(rng), y = lateral(rng),
-                 x = lateral(rng);  // one draw a statement, last first (test_support.hpp, draw3)
+    // Sequenced draws, the last component first (see draw3 in tests/test_support.hpp).
+    const double z = depth(rng), y = lateral(rng), x = lateral(rng);
     pts.emplace_back(x, 0.5 * y, z);
   }
   return pts;

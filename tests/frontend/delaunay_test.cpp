@@ -40,8 +40,8 @@ TEST(Delaunay, RandomPointsHaveEmptyCircumcirclesAndEulerCount) {
   std::uniform_real_distribution<double> u(0.0, 640.0), v(0.0, 480.0);
   std::vector<Vec2> pts(1500);
   for (Vec2& p : pts) {
-    const double y = v(rng),
-                 x = u(rng);  // one draw a statement, last first (test_support.hpp, draw3)
+    // Sequenced draws, the last component first (see draw3 in tests/test_support.hpp).
+    const double y = v(rng), x = u(rng);
     p = Vec2(x, y);
   }
   const auto tris = delaunayTriangles(pts);
@@ -86,8 +86,8 @@ TEST(Delaunay, IntegerPixelsWithManyCocircularPointsGiveAnExactDelaunayTiling) {
   std::uniform_int_distribution<int> u(0, 119), v(0, 89);
   std::vector<Vec2> pts(2500);
   for (Vec2& p : pts) {
-    const double y = v(rng),
-                 x = u(rng);  // one draw a statement, last first (test_support.hpp, draw3)
+    // Sequenced draws, the last component first (see draw3 in tests/test_support.hpp).
+    const double y = v(rng), x = u(rng);
     p = Vec2(x, y);
   }
   const auto tris = delaunayTriangles(pts);

@@ -47,8 +47,8 @@ inline Vec3 perturbBearing(std::mt19937_64& rng, const Vec3& b, double sigma_rad
   std::normal_distribution<double> g(0.0, sigma_rad);
   const Vec3 helper = std::abs(b.x()) < 0.9 ? Vec3::UnitX() : Vec3::UnitY();
   const Vec3 e1 = b.cross(helper).normalized(), e2 = b.cross(e1);
-  const double n2 = g(rng),
-               n1 = g(rng);  // one draw a statement, last first (test_support.hpp, draw3)
+  // Sequenced draws, the last component first (see draw3 in tests/test_support.hpp).
+  const double n2 = g(rng), n1 = g(rng);
   return (b + n1 * e1 + n2 * e2).normalized();
 }
 

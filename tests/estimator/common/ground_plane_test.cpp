@@ -16,8 +16,8 @@ std::vector<Vec3> scene(double pitch_rad, double scale, int n_ground, int n_clut
   const Mat3 R_C_level = Eigen::AngleAxisd(-pitch_rad, Vec3::UnitX()).toRotationMatrix();
   std::vector<Vec3> pts;
   for (int i = 0; i < n_ground; ++i) {
-    const double z = uz(rng), y = 1.65 + noise(rng),
-                 x = ux(rng);  // one draw a statement, last first (test_support.hpp, draw3)
+    // Sequenced draws, the last component first (see draw3 in tests/test_support.hpp).
+    const double z = uz(rng), y = 1.65 + noise(rng), x = ux(rng);
     pts.push_back(scale * (R_C_level * Vec3(x, y, z)));
   }
   for (int i = 0; i < n_clutter; ++i) {

@@ -90,8 +90,8 @@ std::vector<ScaleFeature> slabFeatures(const camera::Camera& cam, int n, std::mt
     const Vec3 p_C = T_C_B * p_B;
     const auto px = camera::project(cam, p_C);
     if (!px || !camera::isValid(cam, *px)) continue;
-    const double nv = px_noise(rng),
-                 nu = px_noise(rng);  // one draw a statement, last first (test_support.hpp, draw3)
+    // Sequenced draws, the last component first (see draw3 in tests/test_support.hpp).
+    const double nv = px_noise(rng), nu = px_noise(rng);
     const double depth_factor = 1.0 + depth_noise(rng);
     features.push_back({*px + Vec2(nu, nv), p_C * depth_factor / kTrueScale});
   }

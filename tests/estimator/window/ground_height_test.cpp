@@ -27,8 +27,8 @@ void addAnchor(std::unordered_map<TrackId, Landmark>& lms, int kf, double scale,
   std::mt19937_64 rng(seed);
   std::uniform_real_distribution<double> ux(-6, 6), uz(3, 25), noise(-0.01, 0.01), uy(-3, 1.0);
   for (int i = 0; i < 160; ++i) {
-    const double z = uz(rng), y = i < 100 ? 1.65 + noise(rng) : uy(rng),
-                 x = ux(rng);  // one draw a statement, last first (test_support.hpp, draw3)
+    // Sequenced draws, the last component first (see draw3 in tests/test_support.hpp).
+    const double z = uz(rng), y = i < 100 ? 1.65 + noise(rng) : uy(rng), x = ux(rng);
     const Vec3 p = scale * Vec3(x, y, z);
     Landmark lm;
     lm.id = static_cast<TrackId>(lms.size() + 1);
