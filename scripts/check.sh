@@ -303,23 +303,27 @@ ARM64_TOLERANCE_M=0.000001
 # arm64_compare <root>: the end-to-end subset of `check.sh arm64` (see the header).
 arm64_compare() {
   local root=$1 work=build-arm64/compare e rms max status=0
-  if [ ! -x build/ovo ]; then
-    configure build -DCMAKE_BUILD_TYPE=Release
-    cmake --build build --target ovo -j "$JOBS"
-  fi
+  # The x86-64 build of the same source (built or brought up to date; errexit does not hold in a
+  # function called before ||, so every step checks its own status).
+  configure build -DCMAKE_BUILD_TYPE=Release || return 1
+  cmake --build build --target ovo -j "$JOBS" || return 1
   rm -rf "$work"
   mkdir -p "$work"
-  build/ovo simulate --duration 8 --out "$work/data" >"$work/simulate.log" 2>&1
+  build/ovo simulate --duration 8 --out "$work/data" >"$work/simulate.log" 2>&1 ||
+    { echo "check.sh arm64: ovo simulate failed ($work/simulate.log)"; return 1; }
   for e in vo kf window; do
     build/ovo run --quiet --dataset "$work/data" --estimator $e --out "$work/x86_64/$e" \
-      >"$work/x86_64_$e.log" 2>&1
+      >"$work/x86_64_$e.log" 2>&1 ||
+      { echo "check.sh arm64: ovo run --estimator $e failed on x86-64 ($work/x86_64_$e.log)"; status=1; continue; }
     $sudo chroot "$root" bash -c "cd /ovo && qemu-aarch64 build-arm64/out/ovo run --quiet \
         --dataset $work/data --estimator $e --out $work/arm64/$e" >"$work/arm64_$e.log" 2>&1 ||
       { echo "check.sh arm64: ovo run --estimator $e failed under qemu ($work/arm64_$e.log)"; status=1; continue; }
     build/ovo eval --gt "$work/x86_64/$e/trajectory.txt" --est "$work/arm64/$e/trajectory.txt" \
-      --format tum --align none >"$work/$e.json"
+      --format tum --align none >"$work/$e.json" ||
+      { echo "check.sh arm64: ovo eval failed for $e"; status=1; continue; }
     rms=$(awk -F': ' '/"rmse"/ {sub(/,$/, "", $2); print $2; exit}' "$work/$e.json")
     max=$(awk -F': ' '/"max"/ {sub(/,$/, "", $2); print $2; exit}' "$work/$e.json")
+    [ -n "$rms" ] || { echo "check.sh arm64: no RMS in $work/$e.json"; status=1; continue; }
     printf 'check.sh arm64: %-6s arm64 vs x86-64: RMS %.3g m, max %.3g m (ATE x86-64 %s, arm64 %s)\n' \
       $e "$rms" "$max" "$(ate_of "$work/x86_64/$e" "$work/data")" "$(ate_of "$work/arm64/$e" "$work/data")"
     awk -v r="$rms" -v t=$ARM64_TOLERANCE_M 'BEGIN { exit !(r <= t) }' ||
