@@ -27,7 +27,7 @@
 #       made by debootstrap (OVO_ARM64_ROOT, default build-arm64/root) holding only the arm64
 #       ones, the source tree and ../shared/data mounted in it. Needs root (or sudo) for
 #       debootstrap, mount and chroot. ROS 1 bags are off (OVO_WITH_ROS1=OFF: Debian 12 has no
-#       arm64 librosbag-storage-dev); their tests skip. Not part of CI (an hour or more).
+#       arm64 librosbag-storage-dev); their tests skip. Not part of CI (about three hours on two cores).
 #       Without ctest options the end-to-end subset follows the tests: a short simulated row made
 #       by the x86-64 build (build/, built when missing), `ovo run` of vo, kf and window on it by
 #       both builds, and each arm64 trajectory compared with the x86-64 one at the same stamps
