@@ -27,10 +27,10 @@
 #       made by debootstrap (OVO_ARM64_ROOT, default build-arm64/root) holding only the arm64
 #       ones, the source tree and ../shared/data mounted in it. Needs root (or sudo) for
 #       debootstrap, mount and chroot. ROS 1 bags are off (OVO_WITH_ROS1=OFF: Debian 12 has no
-#       arm64 librosbag-storage-dev); their tests skip. Not part of CI (about three hours on two cores).
-#       Without ctest options the end-to-end subset follows the tests: a short simulated row made
-#       by the x86-64 build (build/, built when missing), `ovo run` of vo, kf and window on it by
-#       both builds, and each arm64 trajectory compared with the x86-64 one at the same stamps
+#       arm64 librosbag-storage-dev); their tests skip. Not part of CI (about three hours on two
+#       cores). Without ctest options the end-to-end subset follows the tests: a short simulated
+#       row made by the x86-64 build (build/, brought up to date), `ovo run` of vo, kf and window by
+#       both builds on it, and each arm64 trajectory compared with the x86-64 one at the same stamps
 #       (RMS of the position difference, no alignment) against ARM64_TOLERANCE_M below.
 #       `scripts/check.sh arm64 --compare` builds and runs that subset alone.
 #
@@ -321,8 +321,8 @@ arm64_compare() {
     build/ovo eval --gt "$work/x86_64/$e/trajectory.txt" --est "$work/arm64/$e/trajectory.txt" \
       --format tum --align none >"$work/$e.json" ||
       { echo "check.sh arm64: ovo eval failed for $e"; status=1; continue; }
-    rms=$(awk -F': ' '/"rmse"/ {sub(/,$/, "", $2); print $2; exit}' "$work/$e.json")
-    max=$(awk -F': ' '/"max"/ {sub(/,$/, "", $2); print $2; exit}' "$work/$e.json")
+    rms=$(ate_value rmse <"$work/$e.json")
+    max=$(ate_value max <"$work/$e.json")
     [ -n "$rms" ] || { echo "check.sh arm64: no RMS in $work/$e.json"; status=1; continue; }
     printf 'check.sh arm64: %-6s arm64 vs x86-64: RMS %.3g m, max %.3g m (ATE x86-64 %s, arm64 %s)\n' \
       $e "$rms" "$max" "$(ate_of "$work/x86_64/$e" "$work/data")" "$(ate_of "$work/arm64/$e" "$work/data")"
@@ -332,10 +332,14 @@ arm64_compare() {
   return $status
 }
 
+# ate_value <key> < eval.json: a value of `ovo eval`'s "ate" block (its first "<key>": line).
+ate_value() {
+  awk -F': ' -v key="\"$1\"" 'index($1, key) {sub(/,$/, "", $2); print $2; exit}'
+}
+
 # ate_of <run folder> <dataset>: the run's ATE against the dataset's ground truth, in metres.
 ate_of() {
-  build/ovo eval --gt "$2/groundtruth.txt" --est "$1/trajectory.txt" |
-    awk -F': ' '/"rmse"/ {sub(/,$/, "", $2); printf "%.4f m", $2; exit}'
+  printf '%.4f m' "$(build/ovo eval --gt "$2/groundtruth.txt" --est "$1/trajectory.txt" | ate_value rmse)"
 }
 
 cmd=${1:-help}
