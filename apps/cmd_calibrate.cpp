@@ -413,6 +413,7 @@ int runCalibrateRig(const RigArgs& args) {
 
   calib::RigCalibrationOptions options;
   options.max_offset_s = args.max_offset_s;
+  options.gyro_noise_density = data.rig.gyro_noise_density;
   calib::RigInput input;
   input.camera = &*data.camera;
   input.frontend = frontend_options;

@@ -1,6 +1,7 @@
 #include "calib/rig_calibration.hpp"
 
 #include <ceres/autodiff_cost_function.h>
+#include <ceres/covariance.h>
 #include <ceres/loss_function.h>
 #include <ceres/problem.h>
 #include <ceres/rotation.h>
@@ -8,6 +9,7 @@
 #include <ceres/sphere_manifold.h>
 #include <fmt/format.h>
 
+#include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
 #include <Eigen/SVD>
 #include <algorithm>
@@ -119,14 +121,17 @@ Mat3 kabsch(const std::vector<Vec3>& a, const std::vector<Vec3>& b) {
 struct Pair {
   double t0_s, t1_s;  // image stamps on the gyro's time axis (before the offset)
   Vec3 r_C;           // log of the camera's rotation from frame 0 to frame 1, in C0
+  Mat3 cov_C;         // its covariance [rad^2] (zero: unknown)
+  bool low_parallax;  // scaled as a group of its own
 };
 
-// Log(dR_B(t0 - t_d, t1 - t_d; b)^T  R_B_C dR_C  R_B_C^T) with R_B_C = R0 Exp(delta).
+// W Log(dR_B(t0 - t_d, t1 - t_d; b)^T  R_B_C dR_C  R_B_C^T) with R_B_C = R0 Exp(delta) and W
+// the pair's square-root information (W^T W = the inverse covariance of the error, in B).
 struct RotationResidual {
   const GyroSeries* gyro;
   Pair pair;
   Mat3 R0;
-  double inv_sigma;
+  Mat3 W;
   template <typename T>
   bool operator()(const T* delta, const T* t_d, const T* bias, T* residual) const {
     T q_B[4];
@@ -149,7 +154,8 @@ struct RotationResidual {
       for (T& v : q_err) v = -v;
     T err[3];
     ceres::QuaternionToAngleAxis(q_err, err);
-    for (int k = 0; k < 3; ++k) residual[k] = err[k] * inv_sigma;
+    for (int r = 0; r < 3; ++r)
+      residual[r] = W(r, 0) * err[0] + W(r, 1) * err[1] + W(r, 2) * err[2];
     return true;
   }
 };
@@ -177,7 +183,7 @@ RigCalibration calibrateRigFromRotations(const std::vector<CameraRotation>& rota
     if (t0 - options.max_offset_s < g.t_s.front() || t1 + options.max_offset_s > g.t_s.back())
       continue;
     const Vec3 r_C = so3::log(r.R_C1_C0.transpose());  // the camera's rotation, C0 -> C1
-    pairs.push_back({t0, t1, r_C});
+    pairs.push_back({t0, t1, r_C, r.covariance, r.low_parallax});
     rates.push_back(r_C.norm() / (t1 - t0));
   }
   if (static_cast<int>(pairs.size()) < options.min_pairs)
@@ -282,19 +288,59 @@ RigCalibration calibrateRigFromRotations(const std::vector<CameraRotation>& rota
   }
   out.R_B_C_closed_form = R;
 
-  // 3. Joint refinement.
-  std::vector<double> pre;
+  // 3. Joint refinement. Each pair's error is weighted by its covariance in B: the camera
+  // rotation's (mapped by R_B_C) plus the gyro's white noise integrated over the pair. Pairs
+  // whose rotation trades with their translation (a short baseline) have a wide covariance and
+  // count less. A pair without one takes the widest of the others; when fewer than half have
+  // one, every pair counts alike. The covariances' shapes are kept and their sizes are not
+  // trusted: a pair's matches share their errors in part (a region's flow), which the spread of
+  // its residuals does not show, and more so with low parallax. So the weights of each group
+  // (pairs with and without parallax) are scaled by the robust spread of that group's weighted
+  // residuals, which also puts them in the units of the Huber loss.
+  std::size_t with_covariance = 0;
+  for (const Pair& p : pairs) with_covariance += p.cov_C.isZero() ? 0 : 1;
+  const bool weighted = 2 * with_covariance >= pairs.size();
+  std::vector<Mat3> weights(pairs.size(), Mat3::Identity());
+  if (weighted) {
+    std::vector<bool> have(pairs.size(), false);
+    double widest = -1.0;
+    Mat3 widest_weight = Mat3::Identity();
+    for (std::size_t i = 0; i < pairs.size(); ++i) {
+      if (pairs[i].cov_C.isZero()) continue;
+      const double gyro_var = options.gyro_noise_density * options.gyro_noise_density * dts[i];
+      const Mat3 S = R * pairs[i].cov_C * R.transpose() + gyro_var * Mat3::Identity();
+      const Eigen::LLT<Mat3> llt(S.inverse());
+      if (llt.info() != Eigen::Success) continue;
+      weights[i] = llt.matrixU();
+      have[i] = true;
+      if (S.trace() > widest) {
+        widest = S.trace();
+        widest_weight = weights[i];
+      }
+    }
+    for (std::size_t i = 0; i < pairs.size(); ++i)
+      if (!have[i]) weights[i] = widest_weight;
+  }
+  std::vector<double> pre(pairs.size()), group_pre[2];
   for (std::size_t i = 0; i < pairs.size(); ++i) {
     bool ok = true;
     const Mat3 dR = gyroDeltaR(g, pairs[i].t0_s - best_td, pairs[i].t1_s - best_td, bias, &ok);
-    pre.push_back(so3::log(dR.transpose() * so3::exp(R * pairs[i].r_C)).norm());
+    pre[i] = (weights[i] * so3::log(dR.transpose() * so3::exp(R * pairs[i].r_C))).norm();
+    group_pre[pairs[i].low_parallax ? 1 : 0].push_back(pre[i]);
   }
-  const double sigma = std::max(1e-5, 1.4826 * median(pre));
+  const double floor = weighted ? 1e-3 : 1e-5;
+  const double overall = std::max(floor, 1.4826 * median(pre));
+  double group_scale[2];
+  for (int k = 0; k < 2; ++k)  // a group too small for a spread of its own takes the overall one
+    group_scale[k] =
+        group_pre[k].size() >= 10 ? std::max(floor, 1.4826 * median(group_pre[k])) : overall;
+  for (std::size_t i = 0; i < pairs.size(); ++i)
+    weights[i] /= group_scale[pairs[i].low_parallax ? 1 : 0];
   double delta[3] = {0, 0, 0}, t_d = best_td, b_g[3] = {bias.x(), bias.y(), bias.z()};
   ceres::Problem problem;
-  for (const Pair& p : pairs)
+  for (std::size_t i = 0; i < pairs.size(); ++i)
     problem.AddResidualBlock(new ceres::AutoDiffCostFunction<RotationResidual, 3, 3, 1, 3>(
-                                 new RotationResidual{&g, p, R, 1.0 / sigma}),
+                                 new RotationResidual{&g, pairs[i], R, weights[i]}),
                              new ceres::HuberLoss(2.0), delta, &t_d, b_g);
   problem.SetParameterLowerBound(&t_d, 0, -options.max_offset_s);
   problem.SetParameterUpperBound(&t_d, 0, options.max_offset_s);
@@ -382,14 +428,17 @@ struct EpipolarResidual {
 // (R, t) refined on the matches by the angular epipolar error (Huber at twice the RANSAC
 // threshold), from the frontend's estimate: the 8-point solution in RANSAC is noisy when the
 // baseline is short (a turn on the spot with the camera ahead of the turning axis), and its
-// rotation error trades with the translation.
+// rotation error trades with the translation. `covariance` (when given) receives the covariance
+// of the rotation's correction in C0 [rad^2], with t free: the residuals' robust spread times
+// (J^T J)^-1 of the rotation block; zero when it cannot be computed.
 Mat3 refineRelativePose(const frontend::FrameMatches& m, const std::vector<std::uint8_t>& inliers,
-                        const Mat3& R0, const std::vector<Vec3>& t_starts, double threshold_rad) {
-  Mat3 best = R0;
-  double best_cost = std::numeric_limits<double>::infinity();
+                        const Mat3& R0, const std::vector<Vec3>& t_starts, double threshold_rad,
+                        Mat3* covariance) {
+  if (covariance) covariance->setZero();
   std::vector<std::size_t> use;
   for (std::size_t i = 0; i < m.size(); ++i)
     if (inliers.empty() || inliers[i]) use.push_back(i);
+  if (use.size() < 8) return R0;
   // At most 200 matches, spread over the list (the frontend buckets them over the image).
   constexpr std::size_t kMaxMatches = 200;
   if (use.size() > kMaxMatches) {
@@ -397,17 +446,23 @@ Mat3 refineRelativePose(const frontend::FrameMatches& m, const std::vector<std::
     for (std::size_t k = 0; k < kMaxMatches; ++k) sub.push_back(use[k * use.size() / kMaxMatches]);
     use.swap(sub);
   }
+  const auto build = [&](ceres::Problem* problem, double* delta, Vec3* t) {
+    for (std::size_t i : use) {
+      problem->AddResidualBlock(
+          new ceres::AutoDiffCostFunction<EpipolarResidual, 1, 3, 3>(
+              new EpipolarResidual{m.bearings_prev[i], m.bearings_cur[i], R0}),
+          new ceres::HuberLoss(2.0 * threshold_rad), delta, t->data());
+    }
+    problem->SetManifold(t->data(), new ceres::SphereManifold<3>);
+  };
+  double best_cost = std::numeric_limits<double>::infinity();
+  double best_delta[3] = {0, 0, 0};
+  Vec3 best_t = Vec3::UnitZ();
   for (const Vec3& t_start : t_starts) {
     double delta[3] = {0, 0, 0};
     Vec3 t = t_start.normalized();
     ceres::Problem problem;
-    for (std::size_t i : use) {
-      problem.AddResidualBlock(new ceres::AutoDiffCostFunction<EpipolarResidual, 1, 3, 3>(
-                                   new EpipolarResidual{m.bearings_prev[i], m.bearings_cur[i], R0}),
-                               new ceres::HuberLoss(2.0 * threshold_rad), delta, t.data());
-    }
-    if (problem.NumResidualBlocks() < 8) return R0;
-    problem.SetManifold(t.data(), new ceres::SphereManifold<3>);
+    build(&problem, delta, &t);
     ceres::Solver::Options so;
     so.linear_solver_type = ceres::DENSE_QR;
     so.max_num_iterations = 50;
@@ -416,10 +471,30 @@ Mat3 refineRelativePose(const frontend::FrameMatches& m, const std::vector<std::
     ceres::Solve(so, &problem, &summary);
     if (summary.final_cost < best_cost) {
       best_cost = summary.final_cost;
-      best = R0 * so3::exp(Vec3(delta[0], delta[1], delta[2]));
+      std::copy(delta, delta + 3, best_delta);
+      best_t = t;
     }
   }
-  return best;
+  if (!std::isfinite(best_cost)) return R0;
+  if (covariance) {
+    ceres::Problem problem;
+    build(&problem, best_delta, &best_t);
+    ceres::Problem::EvaluateOptions eval;
+    eval.apply_loss_function = false;
+    std::vector<double> residuals;
+    problem.Evaluate(eval, nullptr, &residuals, nullptr, nullptr);
+    for (double& r : residuals) r = std::abs(r);
+    const double spread = 1.4826 * median(residuals);
+    ceres::Covariance::Options co;
+    co.algorithm_type = ceres::DENSE_SVD;
+    ceres::Covariance cov(co);
+    const std::vector<std::pair<const double*, const double*>> blocks = {{best_delta, best_delta}};
+    Mat3 c;  // row-major from Ceres; symmetric
+    if (spread > 0.0 && cov.Compute(blocks, &problem) &&
+        cov.GetCovarianceBlock(best_delta, best_delta, c.data()) && c.allFinite())
+      *covariance = spread * spread * c;
+  }
+  return R0 * so3::exp(Vec3(best_delta[0], best_delta[1], best_delta[2]));
 }
 
 }  // namespace
@@ -450,9 +525,11 @@ std::vector<CameraRotation> frontendRotations(const RigInput& input) {
         else
           for (int a = 0; a < 3; ++a)
             for (double sgn : {1.0, -1.0}) starts.push_back(sgn * Vec3::Unit(a));
-        const Mat3 R_refined = refineRelativePose(res.matches, rp.inliers, R_start, starts,
-                                                  options.relative_pose.inlier_threshold_rad);
-        out.push_back({prev, t, R_refined, rp.num_inliers});
+        Mat3 covariance;
+        const Mat3 R_refined =
+            refineRelativePose(res.matches, rp.inliers, R_start, starts,
+                               options.relative_pose.inlier_threshold_rad, &covariance);
+        out.push_back({prev, t, R_refined, rp.num_inliers, covariance, !has_t});
       }
     }
     prev = t;

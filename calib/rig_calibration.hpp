@@ -6,7 +6,8 @@
 //  2. R_B_C in closed form: the rotation that best maps the camera rotations' axis-angle vectors
 //     onto the body's (log dR_B = R_B_C log dR_C; Kabsch/SVD), with the gyro bias fitted in turn;
 //  3. R_B_C, t_d and the gyro bias refined together by Ceres (robust loss on the rotation
-//     residuals Log(dR_B(t_d, b)^T R_B_C dR_C R_B_C^T)).
+//     residuals Log(dR_B(t_d, b)^T R_B_C dR_C R_B_C^T)), each weighted by its camera rotation's
+//     covariance (when the rotations carry one) and the gyro's noise over the pair.
 #pragma once
 
 #include <functional>
@@ -21,11 +22,12 @@
 namespace ovo::calib {
 
 struct RigCalibrationOptions {
-  double max_offset_s = 0.1;         // offsets searched: [-max, max]
-  double search_step_s = 0.0005;     // grid of the correlation search
-  double min_rotation_deg = 0.2;     // frame pairs rotating less take no part in the Kabsch step
-  int min_pairs = 20;                // fewer usable frame pairs: an error
-  double min_axis_spread_deg = 3.0;  // rotations about one axis only leave R_B_C undetermined
+  double max_offset_s = 0.1;           // offsets searched: [-max, max]
+  double search_step_s = 0.0005;       // grid of the correlation search
+  double min_rotation_deg = 0.2;       // frame pairs rotating less take no part in the Kabsch step
+  int min_pairs = 20;                  // fewer usable frame pairs: an error
+  double min_axis_spread_deg = 3.0;    // rotations about one axis only leave R_B_C undetermined
+  double gyro_noise_density = 1.7e-4;  // rad/s/sqrt(Hz): the gyro's share of a pair's residual
 };
 
 /// A camera rotation between two frames (image stamps): X_1 = R_C1_C0 X_0.
@@ -33,6 +35,12 @@ struct CameraRotation {
   Timestamp t0_ns = 0, t1_ns = 0;
   Mat3 R_C1_C0 = Mat3::Identity();
   int inliers = 0;
+  /// Covariance of the rotation's axis-angle vector log(R_C1_C0^T) in C0 [rad^2]; zero when
+  /// unknown (then every pair is weighted alike).
+  Mat3 covariance = Mat3::Zero();
+  /// The pair had too little parallax for the frontend's translation (a turn on the spot, a
+  /// stop): its rotation's errors are of another size, so its weights are scaled on their own.
+  bool low_parallax = false;
 };
 
 struct RigCalibration {
