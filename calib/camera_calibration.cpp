@@ -17,6 +17,7 @@
 
 #include "calib/projection.hpp"
 #include "common/error.hpp"
+#include "common/stats.hpp"
 
 #include <tbb/parallel_for.h>
 
@@ -279,12 +280,6 @@ Residuals residualsOf(const ModelState& m, const Problem& pb) {
   return r;
 }
 
-double median(std::vector<double> v) {
-  if (v.empty()) return 0.0;
-  std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
-  return v[v.size() / 2];
-}
-
 std::string rejectedList(const std::vector<RejectedImage>& rejected) {
   std::string out;
   for (const auto& r : rejected) out += fmt::format("\n  {}: {}", r.image, r.reason);
@@ -299,7 +294,7 @@ void refineWithRejection(ModelState& m, std::vector<BoardObservation>& boards,
     Problem pb{&boards, &poses, usable};
     solve(m, pb, options, false);
     const Residuals res = residualsOf(m, pb);
-    const double med = median(res.rms);
+    const double med = upperMedian(res.rms);
     const double limit = std::max(options.reject_rms_px, options.reject_factor * med);
     std::vector<std::size_t> keep;
     for (std::size_t j = 0; j < boards.size(); ++j) {

@@ -20,11 +20,13 @@
 #include "calib/projection.hpp"
 #include "common/error.hpp"
 #include "common/so3.hpp"
+#include "common/stats.hpp"
 
 namespace ovo::calib {
 namespace {
 
 constexpr double kDeg = M_PI / 180.0;
+constexpr double kMadToSigma = 1.4826;  // a normal sample's median absolute deviation to its sigma
 
 // Gyro samples on a double time axis (seconds from the first sample).
 struct GyroSeries {
@@ -160,12 +162,6 @@ struct RotationResidual {
   }
 };
 
-double median(std::vector<double> v) {
-  if (v.empty()) return 0.0;
-  std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
-  return v[v.size() / 2];
-}
-
 }  // namespace
 
 RigCalibration calibrateRigFromRotations(const std::vector<CameraRotation>& rotations,
@@ -192,7 +188,7 @@ RigCalibration calibrateRigFromRotations(const std::vector<CameraRotation>& rota
         "needed",
         pairs.size(), options.min_pairs);
   RigCalibration out;
-  out.median_rate_dps = median(rates) / kDeg;
+  out.median_rate_dps = upperMedian(rates) / kDeg;
 
   // 1. Time offset: correlation of the angular speeds over a grid of offsets.
   const Vec3 zero = Vec3::Zero();
@@ -329,11 +325,12 @@ RigCalibration calibrateRigFromRotations(const std::vector<CameraRotation>& rota
     group_pre[pairs[i].low_parallax ? 1 : 0].push_back(pre[i]);
   }
   const double floor = weighted ? 1e-3 : 1e-5;
-  const double overall = std::max(floor, 1.4826 * median(pre));
+  const double overall = std::max(floor, kMadToSigma * upperMedian(pre));
   double group_scale[2];
   for (int k = 0; k < 2; ++k)  // a group too small for a spread of its own takes the overall one
-    group_scale[k] =
-        group_pre[k].size() >= 10 ? std::max(floor, 1.4826 * median(group_pre[k])) : overall;
+    group_scale[k] = group_pre[k].size() >= 10
+                         ? std::max(floor, kMadToSigma * upperMedian(group_pre[k]))
+                         : overall;
   for (std::size_t i = 0; i < pairs.size(); ++i)
     weights[i] /= group_scale[pairs[i].low_parallax ? 1 : 0];
   double delta[3] = {0, 0, 0}, t_d = best_td, b_g[3] = {bias.x(), bias.y(), bias.z()};
@@ -398,7 +395,7 @@ Mat3 rotationOnly(const frontend::FrameMatches& m, const std::vector<std::uint8_
     std::vector<double> res;
     for (std::size_t i : use)
       res.push_back(angleBetween(m.bearings_cur[i], R * m.bearings_prev[i]));
-    *median_residual = median(res);
+    *median_residual = upperMedian(res);
     std::vector<std::size_t> keep;
     for (std::size_t k = 0; k < use.size(); ++k)
       if (res[k] <= 3.0 * *median_residual) keep.push_back(use[k]);
@@ -484,7 +481,7 @@ Mat3 refineRelativePose(const frontend::FrameMatches& m, const std::vector<std::
     std::vector<double> residuals;
     problem.Evaluate(eval, nullptr, &residuals, nullptr, nullptr);
     for (double& r : residuals) r = std::abs(r);
-    const double spread = 1.4826 * median(residuals);
+    const double spread = kMadToSigma * upperMedian(residuals);
     ceres::Covariance::Options co;
     co.algorithm_type = ceres::DENSE_SVD;
     ceres::Covariance cov(co);
