@@ -28,9 +28,10 @@
 #       ones, the source tree and ../shared/data mounted in it. Needs root (or sudo) for
 #       debootstrap, mount and chroot. ROS 1 bags are off (OVO_WITH_ROS1=OFF: Debian 12 has no
 #       arm64 librosbag-storage-dev); their tests skip. Not part of CI (about three hours on two
-#       cores). Without ctest options the end-to-end subset follows the tests: a short simulated
-#       row made by the x86-64 build (build/, brought up to date), `ovo run` of vo, kf and window by
-#       both builds on it, and each arm64 trajectory compared with the x86-64 one at the same stamps
+#       cores; in two halves: `-LE apps -I 1,0,2`, `-LE apps -I 2,0,2`, then `--compare`).
+#       Without ctest options the end-to-end subset follows the tests: a short simulated row made
+#       by the x86-64 build (build/, brought up to date), `ovo run` of vo, kf and window by both
+#       builds on it, and each arm64 trajectory compared with the x86-64 one at the same stamps
 #       (RMS of the position difference, no alignment) against ARM64_TOLERANCE_M below.
 #       `scripts/check.sh arm64 --compare` builds and runs that subset alone.
 #
