@@ -10,9 +10,13 @@
 #   tests/ros/rate_sweep.sh BUILD_DIR [WORK_DIR [RATE [RUNS]]]     (RATE 3, RUNS 8 by default)
 set -euo pipefail
 USAGE="rate_sweep.sh BUILD_DIR [WORK_DIR [RATE [RUNS]]]"
-source "$(dirname "$0")/session.sh"
 RATE=${3:-3}
 RUNS=${4:-8}
+bad_argument() { echo "FAIL: $* (usage: $USAGE)"; exit 1; }
+[[ "$RATE" =~ ^[0-9]*\.?[0-9]+$ ]] && awk -v r="$RATE" 'BEGIN { exit !(r > 0) }' ||
+  bad_argument "RATE '$RATE': expected a replay rate > 0"
+[[ "$RUNS" =~ ^[1-9][0-9]*$ ]] || bad_argument "RUNS '$RUNS': expected a whole number >= 1"
+source "$(dirname "$0")/session.sh"
 
 play() { rosbag play --quiet --wait-for-subscribers --rate "$RATE" "$DATA/run.bag" >"$WORK/play$1.log" 2>&1; }
 ate_of() { json "$1" "['ate']['rmse']"; }
