@@ -287,8 +287,8 @@ cmd_arm64() {
   local status=0
   if ((tests)); then
     start=$(date +%s)
-    # Two hours a test: qemu runs the longest (WindowConsistency's 30 seeds, 3 minutes natively)
-    # 17-25x slower, and it reached one hour with other work beside it.
+    # Two hours a test: qemu runs the longest (WindowConsistency's 30 seeds) 25-40x slower than
+    # natively, about 45 minutes alone, and it passed one hour with other work beside it.
     $sudo chroot "$root" bash -c "cd /ovo/build-arm64/out && POCL_CACHE_DIR=/tmp/pocl \
         ctest --output-on-failure -j $JOBS --timeout 7200 $(printf '%q ' "${ctest_args[@]}")" ||
       status=$?

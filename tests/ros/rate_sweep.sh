@@ -19,11 +19,17 @@ bad_argument() { echo "FAIL: $* (usage: $USAGE)"; exit 1; }
 source "$(dirname "$0")/session.sh"
 
 play() { rosbag play --quiet --wait-for-subscribers --rate "$RATE" "$DATA/run.bag" >"$WORK/play$1.log" 2>&1; }
-ate_of() { json "$1" "['ate']['rmse']"; }
 mm() { awk -v m="$1" 'BEGIN { printf "%.1f", 1000 * m }'; }
 sleep 2  # the master up before the first node
 printf '%-8s %-20s %8s %7s %8s %9s %7s\n' run who dropped losses tracking "ATE mm" "CPU s"
-node_losses=0 node_lost_runs=0 ref_losses=0 ref_lost_runs=0 bad=0
+declare -A losses_of=() lost_runs_of=()
+# row RUN WHO DROPPED LOSSES TRACKING EVAL_JSON CPU: one line of the table, the losses tallied.
+row() {
+  printf '%-8s %-20s %8s %7s %8s %9s %7s\n' "$1" "$2" "$3" "$4" "$5" "$(mm "$(ate_of "$6")")" "$7"
+  losses_of[$2]=$((${losses_of[$2]:-0} + $4))
+  lost_runs_of[$2]=$((${lost_runs_of[$2]:-0} + ($4 > 0)))
+}
+bad=0
 for i in $(seq "$RUNS"); do
   run_node "sweep$i" play "$i"
   "$OVO" eval --gt "$DATA/groundtruth.txt" --est "$WORK/sweep$i.tum" >"$WORK/sweep$i.eval.json"
@@ -31,10 +37,7 @@ for i in $(seq "$RUNS"); do
 import json, sys
 s = json.load(open(sys.argv[1]))
 print(s['frames_dropped'], s['tracking_losses'], int(s['tracking']), s['non_finite'])" "$WORK/sweep$i.json")
-  printf '%-8s %-20s %8s %7s %8s %9s %7s\n' "$i" ovo_ros "$dropped" "$losses" "$tracking" \
-    "$(mm "$(ate_of "$WORK/sweep$i.eval.json")")" "$(cat "$WORK/sweep$i.cpu")"
-  node_losses=$((node_losses + losses))
-  if [ "$losses" -gt 0 ]; then node_lost_runs=$((node_lost_runs + 1)); fi
+  row "$i" ovo_ros "$dropped" "$losses" "$tracking" "$WORK/sweep$i.eval.json" "$(cat "$WORK/sweep$i.cpu")"
   if [ "$tracking" != 1 ] || [ "$non_finite" != 0 ]; then bad=1; fi
 
   "$OVO" run --dataset "$DATA/run.bag" --realtime --rate "$RATE" --estimator window \
@@ -45,13 +48,10 @@ print(s['frames_dropped'], s['tracking_losses'], int(s['tracking']), s['non_fini
 import json, sys
 m = json.load(open(sys.argv[1]))
 print(m['frames_dropped'], m['tracking_losses'], '%.1f' % m['timing']['cpu_s'])" "$WORK/ref$i/metrics.json")
-  printf '%-8s %-20s %8s %7s %8s %9s %7s\n' "$i" "ovo run --realtime" "$dropped" "$losses" - \
-    "$(mm "$(ate_of "$WORK/ref$i.eval.json")")" "$cpu"
-  ref_losses=$((ref_losses + losses))
-  if [ "$losses" -gt 0 ]; then ref_lost_runs=$((ref_lost_runs + 1)); fi
+  row "$i" "ovo run --realtime" "$dropped" "$losses" - "$WORK/ref$i.eval.json" "$cpu"
   sleep 2
 done
-echo "rate $RATE, $RUNS runs: ovo_ros lost the track in $node_lost_runs ($node_losses losses)," \
-  "ovo run --realtime in $ref_lost_runs ($ref_losses losses)"
+echo "rate $RATE, $RUNS runs: ovo_ros lost the track in ${lost_runs_of[ovo_ros]} (${losses_of[ovo_ros]} losses)," \
+  "ovo run --realtime in ${lost_runs_of[ovo run --realtime]} (${losses_of[ovo run --realtime]} losses)"
 if [ "$bad" = 0 ]; then PASSED=1; fi  # a failed sweep's own folder stays to be looked at
 exit $bad

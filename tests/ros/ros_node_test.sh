@@ -46,7 +46,6 @@ expect_refusal bad_rig "$WORK/bad_rig.yaml" "_rig:=$WORK/bad_rig.yaml"
 # machine's timing more than by the adapter (5.0-8.8 mm for the node, 5.0-7.4 for ovo run over a
 # dozen runs, docs/ros.md). At half rate neither drops a frame and the comparison is the adapter's
 # own (stamps, order, conversions). 3. The bag at its rate: what the robot sees.
-ate_of() { json "$1" "['ate']['rmse']"; }
 sleep 2  # the node's start-up (its estimator, OpenCL kernels) done before the bag begins
 echo "playing the bag at half its rate"
 run_node half rosbag play --quiet --wait-for-subscribers --rate 0.5 "$DATA/run.bag"

@@ -47,6 +47,8 @@ stop() {
 # cpu_s PID: user + system CPU of the process so far, s.
 cpu_s() { awk -v hz="$(getconf CLK_TCK)" '{print ($14 + $15) / hz}' "/proc/$1/stat"; }
 json() { "$PY" -c "import json,sys; print(json.load(open(sys.argv[1]))$2)" "$1"; }
+# ate_of EVAL_JSON: the ATE RMS (m) of an `ovo eval` output.
+ate_of() { json "$1" "['ate']['rmse']"; }
 
 export POCL_CACHE_DIR=${POCL_CACHE_DIR:-$HOME/.cache/ovo-pocl}
 export ROS_HOME=$WORK/ros_home ROS_LOG_DIR=$WORK/ros_home/log ROS_HOSTNAME=127.0.0.1
